@@ -1,0 +1,37 @@
+/* What the message core needs from the platform it runs on. firmware/src
+ * implements it for the ATmega2560, firmware/native for the host build. */
+#ifndef VEHIL_BOARD_PORT_H
+#define VEHIL_BOARD_PORT_H
+
+#include <stdint.h>
+
+/* Free-running counter of CPU cycles (wraps at 2^32) and its rate in Hz. */
+uint32_t port_cycles(void);
+uint32_t port_cycles_per_second(void);
+
+/* Queues bytes for the host; blocks while the TX buffer is full. */
+void port_write(const uint8_t *data, uint16_t len);
+/* Returns once every queued byte has left the UART. */
+void port_flush(void);
+
+/* Bytes the RX buffer holds; the host keeps no more than this in flight. */
+uint16_t port_rx_buffer(void);
+/* Bytes dropped because the RX buffer was full, since boot (saturating). */
+uint16_t port_rx_overruns(void);
+
+uint32_t port_baud(void);
+/* 0 if the UART can run at baud, else the |error| in 0.01 % (0xFFFF: not at all). */
+uint16_t port_baud_error(uint32_t baud);
+void port_set_baud(uint32_t baud);
+
+uint16_t port_free_ram(void);
+uint16_t port_stack_size(void);
+/* Stack bytes never written since boot (painted-stack high-water mark). */
+uint16_t port_stack_unused(void);
+
+uint16_t port_boot_count(void);
+uint8_t port_reset_cause(void); /* RESET_CAUSE_* */
+/* Restarts the board; on the AVR through the watchdog, so it does not return. */
+void port_reboot(void);
+
+#endif

@@ -1,0 +1,33 @@
+/* The estimators built into this image. Adding one: include its header, add
+ * its state to the union and its descriptor to the table. */
+#include <stddef.h>
+
+#include "estimators/estimator.h"
+#include "estimators/passthrough.h"
+
+static union {
+    passthrough_state_t passthrough;
+} state;
+
+static const estimator_t *const registry[] = {
+    &passthrough_estimator,
+};
+
+uint8_t estimator_count(void) { return (uint8_t)(sizeof registry / sizeof registry[0]); }
+
+const estimator_t *estimator_at(uint8_t index)
+{
+    return index < estimator_count() ? registry[index] : NULL;
+}
+
+const estimator_t *estimator_by_id(uint8_t id)
+{
+    for (uint8_t i = 0; i < estimator_count(); i++) {
+        if (registry[i]->id == id) {
+            return registry[i];
+        }
+    }
+    return NULL;
+}
+
+void *estimator_state(void) { return &state; }

@@ -1,0 +1,90 @@
+/* port.h for the host build: the message core runs in-process behind a byte
+ * pipe, so the host's `native://` link speaks the same protocol as a board.
+ * Cycles are nanoseconds of the host's monotonic clock. */
+#define _POSIX_C_SOURCE 199309L
+#include <stdint.h>
+#include <string.h>
+#include <time.h>
+
+#include "board/dispatch.h"
+#include "board/port.h"
+#include "proto/messages.h"
+
+#define NATIVE_OUT_SIZE 65536u
+#define NATIVE_RX_BUFFER 4096u /* no real buffer: the window the host may use */
+
+static uint8_t out_buf[NATIVE_OUT_SIZE];
+static uint32_t out_len;
+static uint32_t out_dropped;
+static uint32_t baud = 1000000u;
+static uint16_t boot_count;
+static uint8_t reset_cause;
+
+uint32_t port_cycles(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (uint32_t)((uint64_t)ts.tv_sec * 1000000000u + (uint64_t)ts.tv_nsec);
+}
+
+uint32_t port_cycles_per_second(void) { return 1000000000u; }
+
+void port_write(const uint8_t *data, uint16_t len)
+{
+    if (out_len + len > NATIVE_OUT_SIZE) {
+        out_dropped += len; /* the host stopped reading; it sees the loss as missing replies */
+        return;
+    }
+    memcpy(out_buf + out_len, data, len);
+    out_len += len;
+}
+
+void port_flush(void) {}
+uint16_t port_rx_buffer(void) { return NATIVE_RX_BUFFER; }
+uint16_t port_rx_overruns(void) { return 0; }
+uint32_t port_baud(void) { return baud; }
+uint16_t port_baud_error(uint32_t b) { return b == 0 ? 0xFFFFu : 0; }
+void port_set_baud(uint32_t b) { baud = b; }
+uint16_t port_free_ram(void) { return 0; }
+uint16_t port_stack_size(void) { return 0; }
+uint16_t port_stack_unused(void) { return 0; }
+uint16_t port_boot_count(void) { return boot_count; }
+uint8_t port_reset_cause(void) { return reset_cause; }
+
+static void boot(uint8_t cause)
+{
+    boot_count++;
+    reset_cause = cause;
+    baud = 1000000u;
+    dispatch_init();
+}
+
+void port_reboot(void) { boot(RESET_CAUSE_SOFTWARE); }
+
+/* The library's entry points, called by host/vehil/transports/protocol_native.py. */
+
+void vehil_native_power_on(void)
+{
+    out_len = 0;
+    out_dropped = 0;
+    boot_count = 0;
+    boot(RESET_CAUSE_POWER_ON);
+}
+
+void vehil_native_write(const uint8_t *data, uint32_t len)
+{
+    for (uint32_t i = 0; i < len; i++) {
+        dispatch_byte(data[i]);
+    }
+}
+
+uint32_t vehil_native_read(uint8_t *dst, uint32_t max)
+{
+    uint32_t n = out_len < max ? out_len : max;
+    memcpy(dst, out_buf, n);
+    memmove(out_buf, out_buf + n, out_len - n);
+    out_len -= n;
+    return n;
+}
+
+uint32_t vehil_native_dropped(void) { return out_dropped; }

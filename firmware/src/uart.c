@@ -1,0 +1,106 @@
+#include "uart.h"
+
+#include <avr/interrupt.h>
+#include <avr/io.h>
+#include <util/atomic.h>
+
+static volatile uint8_t rx_buf[UART_RX_SIZE];
+static volatile uint16_t rx_head; /* written by the ISR */
+static uint16_t rx_tail;
+static volatile uint16_t rx_overruns;
+
+static volatile uint8_t tx_buf[UART_TX_SIZE];
+static uint8_t tx_head;
+static volatile uint8_t tx_tail; /* advanced by the ISR */
+static volatile uint8_t tx_busy; /* set when a byte is queued, cleared by TXC */
+
+static uint32_t current_baud;
+
+ISR(USART0_RX_vect)
+{
+    uint8_t hw_overrun = UCSR0A & _BV(DOR0);
+    uint8_t byte = UDR0;
+    uint16_t next = (uint16_t)((rx_head + 1u) % UART_RX_SIZE);
+    if (next == rx_tail || hw_overrun) {
+        if (rx_overruns != UINT16_MAX) {
+            rx_overruns++;
+        }
+    }
+    if (next != rx_tail) {
+        rx_buf[rx_head] = byte;
+        rx_head = next;
+    }
+}
+
+ISR(USART0_UDRE_vect)
+{
+    if (tx_tail == tx_head) {
+        UCSR0B &= (uint8_t)~_BV(UDRIE0);
+        return;
+    }
+    UDR0 = tx_buf[tx_tail];
+    tx_tail = (uint8_t)(tx_tail + 1u);
+}
+
+ISR(USART0_TX_vect) { tx_busy = 0; }
+
+int32_t uart_ubrr(uint32_t baud)
+{
+    if (baud == 0) {
+        return -1;
+    }
+    int32_t ubrr = (int32_t)((F_CPU + 4UL * baud) / (8UL * baud)) - 1; /* rounded */
+    return (ubrr < 0 || ubrr > 4095) ? -1 : ubrr;
+}
+
+void uart_init(uint32_t baud)
+{
+    UCSR0B = 0;
+    UBRR0 = (uint16_t)uart_ubrr(baud);
+    UCSR0A = _BV(U2X0);
+    UCSR0C = _BV(UCSZ01) | _BV(UCSZ00); /* 8N1 */
+    UCSR0B = _BV(RXEN0) | _BV(TXEN0) | _BV(RXCIE0) | _BV(TXCIE0);
+    current_baud = baud;
+}
+
+int16_t uart_read(void)
+{
+    uint16_t head;
+    ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { head = rx_head; }
+    if (head == rx_tail) {
+        return -1;
+    }
+    uint8_t byte = rx_buf[rx_tail];
+    ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { rx_tail = (uint16_t)((rx_tail + 1u) % UART_RX_SIZE); }
+    return byte;
+}
+
+void uart_write(uint8_t byte)
+{
+    uint8_t next = (uint8_t)(tx_head + 1u);
+    while (next == tx_tail) {
+        /* full: the UDRE interrupt drains it */
+    }
+    tx_buf[tx_head] = byte;
+    ATOMIC_BLOCK(ATOMIC_RESTORESTATE)
+    {
+        tx_head = next;
+        tx_busy = 1;
+        UCSR0B |= _BV(UDRIE0);
+    }
+}
+
+void uart_flush(void)
+{
+    while (tx_busy || tx_tail != tx_head) {
+    }
+}
+
+uint32_t uart_baud(void) { return current_baud; }
+
+uint16_t uart_rx_overruns(void)
+{
+    uint16_t n;
+    ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { n = rx_overruns; }
+    return n;
+}

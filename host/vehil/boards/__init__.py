@@ -1,0 +1,36 @@
+"""Boards: where the firmware runs, each reached through a pyserial URL.
+
+`open_board(spec)` takes "simavr", "qemu", "native", or anything pyserial can
+open (a device such as /dev/ttyACM0, or a URL such as socket://host:port), and
+returns a context manager that starts the board, waits for its ready frame,
+yields a Link with the board's INFO read, and stops the board on the way out,
+on errors and Ctrl-C too.
+"""
+
+from __future__ import annotations
+
+from vehil.boards.base import Board
+from vehil.boards.native import NativeBoard
+from vehil.boards.qemu import QemuBoard
+from vehil.boards.serialport import SerialBoard
+from vehil.boards.simavr import SimavrBoard
+
+VIRTUAL_BOARDS: dict[str, type[Board]] = {
+    "simavr": SimavrBoard,
+    "qemu": QemuBoard,
+    "native": NativeBoard,
+}
+DEFAULT_BOARD = "simavr"
+
+
+def make_board(spec: str, **options: object) -> Board:
+    if spec in VIRTUAL_BOARDS:
+        return VIRTUAL_BOARDS[spec](**options)  # type: ignore[arg-type]
+    return SerialBoard(spec, **options)  # type: ignore[arg-type]
+
+
+def open_board(spec: str = DEFAULT_BOARD, **options: object):  # noqa: ANN201
+    return make_board(spec, **options).session()
+
+
+__all__ = ["Board", "DEFAULT_BOARD", "VIRTUAL_BOARDS", "make_board", "open_board"]

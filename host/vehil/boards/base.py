@@ -1,0 +1,62 @@
+"""What every board does: start, connect by URL, wait for ready, stop."""
+
+from __future__ import annotations
+
+import contextlib
+from collections.abc import Iterator
+
+import serial
+
+import vehil.transports  # noqa: F401  (registers native://)
+from vehil.errors import BoardStartError, BoardTimeout
+from vehil.link import Link
+
+DEFAULT_BAUD = 1_000_000
+
+
+class Board:
+    """A place the firmware runs. Subclasses start it and say its URL."""
+
+    name = "board"
+    ready_timeout_s = 10.0
+
+    def __init__(self, *, baud: int = DEFAULT_BAUD, timeout_s: float = 2.0):
+        self.baud = baud
+        self.timeout_s = timeout_s
+
+    def start(self) -> str:
+        """Brings the board up; returns the pyserial URL to reach it."""
+        raise NotImplementedError
+
+    def stop(self) -> None:
+        """Takes the board down; safe to call twice and after a failed start."""
+
+    def open_port(self, url: str) -> serial.SerialBase:
+        try:
+            return serial.serial_for_url(url, baudrate=self.baud, timeout=0.02)
+        except serial.SerialException as exc:
+            raise BoardStartError(f"cannot open {self.name} at {url}: {exc}") from None
+
+    def wait_ready(self, link: Link) -> None:
+        try:
+            link.wait_ready(self.ready_timeout_s)
+        except BoardTimeout as exc:
+            raise BoardTimeout(f"{self.name}: {exc}{self.diagnostics()}") from None
+
+    def diagnostics(self) -> str:
+        """Anything the board's process said, to append to an error."""
+        return ""
+
+    @contextlib.contextmanager
+    def session(self) -> Iterator[Link]:
+        try:
+            url = self.start()
+            link = Link(self.open_port(url), timeout_s=self.timeout_s)
+            try:
+                self.wait_ready(link)
+                link.hello()
+                yield link
+            finally:
+                link.close()
+        finally:
+            self.stop()

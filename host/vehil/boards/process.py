@@ -1,0 +1,75 @@
+"""A board program (simavr bridge, QEMU) run as a child process that never outlives us."""
+
+from __future__ import annotations
+
+import os
+import selectors
+import signal
+import subprocess
+import tempfile
+import time
+
+from vehil.errors import BoardStartError
+
+
+class BoardProcess:
+    """Starts a command in its own process group; stderr goes to a file we can quote."""
+
+    def __init__(self, argv: list[str], name: str):
+        self.argv = argv
+        self.name = name
+        self._stderr = tempfile.TemporaryFile()
+        try:
+            self.proc = subprocess.Popen(
+                argv,
+                stdin=subprocess.DEVNULL,
+                stdout=subprocess.PIPE,
+                stderr=self._stderr,
+                start_new_session=True,  # Ctrl-C reaches us, and we stop it in order
+            )
+        except OSError as exc:
+            raise BoardStartError(f"cannot start {name}: {argv[0]}: {exc.strerror}") from None
+
+    def stderr_tail(self, lines: int = 15) -> str:
+        self._stderr.seek(0)
+        text = self._stderr.read().decode(errors="replace").strip().splitlines()
+        return "\n".join(text[-lines:])
+
+    def failure(self, what: str) -> BoardStartError:
+        tail = self.stderr_tail()
+        said = f"\n{self.name} said:\n{tail}" if tail else ""
+        return BoardStartError(f"{self.name} {what} (command: {' '.join(self.argv)}){said}")
+
+    def read_line(self, timeout_s: float) -> str:
+        """The next stdout line, bounded in time; raises if the process dies first."""
+        assert self.proc.stdout is not None
+        deadline = time.monotonic() + timeout_s
+        with selectors.DefaultSelector() as sel:
+            sel.register(self.proc.stdout, selectors.EVENT_READ)
+            while (remaining := deadline - time.monotonic()) > 0:
+                if sel.select(remaining):
+                    line = self.proc.stdout.readline()
+                    if line:
+                        return line.decode(errors="replace").strip()
+                    break
+        self.proc.poll()
+        if self.proc.returncode is not None:
+            raise self.failure(f"exited with status {self.proc.returncode} before it was ready")
+        raise self.failure(f"printed nothing within {timeout_s:.0f} s")
+
+    def alive(self) -> bool:
+        return self.proc.poll() is None
+
+    def stop(self, grace_s: float = 2.0) -> None:
+        if self.proc.poll() is None:
+            try:
+                os.killpg(self.proc.pid, signal.SIGTERM)
+                self.proc.wait(grace_s)
+            except subprocess.TimeoutExpired:
+                os.killpg(self.proc.pid, signal.SIGKILL)
+                self.proc.wait()
+            except ProcessLookupError:
+                pass
+        if self.proc.stdout is not None:
+            self.proc.stdout.close()
+        self._stderr.close()

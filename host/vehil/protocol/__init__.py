@@ -1,0 +1,1 @@
+"""The wire protocol: schema, COBS, CRC-16 and frames."""
