@@ -10,7 +10,8 @@ uint16_t cobs_encode(const uint8_t *src, uint16_t len, uint8_t *dst)
             dst[out++] = src[i];
             code++;
         }
-        if (src[i] == 0 || code == 0xFF) {
+        /* A full block ends without standing for a zero; open the next only if data follows. */
+        if (src[i] == 0 || (code == 0xFF && i + 1u < len)) {
             dst[code_at] = code;
             code_at = out++;
             code = 1;

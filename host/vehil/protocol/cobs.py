@@ -11,11 +11,13 @@ def encode(data: bytes) -> bytes:
     """Encodes data so it holds no 0x00; the frame delimiter is not added."""
     out = bytearray([0])
     code_at, code = 0, 1
-    for byte in data:
+    last = len(data) - 1
+    for i, byte in enumerate(data):
         if byte:
             out.append(byte)
             code += 1
-        if not byte or code == 0xFF:
+        # A full block ends without standing for a zero; open the next only if data follows.
+        if not byte or (code == 0xFF and i < last):
             out[code_at] = code
             code_at, code = len(out), 1
             out.append(0)

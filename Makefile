@@ -1,0 +1,26 @@
+# The two commands of the README, and the steps under them.
+#   make demo   set up, build, and run the demo on the default virtual board
+#   make test   set up, build, and run every test (unit, native C, HIL on simavr and QEMU)
+
+VEHIL := .venv/bin/vehil
+
+.PHONY: setup build demo test lint clean
+
+setup:
+	@scripts/setup
+
+build: setup
+	$(VEHIL) build
+
+demo: build
+	$(VEHIL) demo
+
+test: build lint
+	.venv/bin/pytest
+
+lint: setup
+	.venv/bin/ruff check host tests
+	.venv/bin/mypy
+
+clean:
+	rm -rf build .pio sim/build

@@ -1,0 +1,20 @@
+"""Shared fixtures: build products once per session, boards per module."""
+
+from __future__ import annotations
+
+import pytest
+
+from vehil.build import build
+
+
+@pytest.fixture(scope="session")
+def built() -> dict:
+    """Builds the firmware, the simavr bridge and the native library (incrementally)."""
+    return build()
+
+
+@pytest.fixture(scope="session")
+def native_lib(built):  # noqa: ANN001, ANN201
+    from vehil.transports.protocol_native import load_library
+
+    return load_library(built["native"])

@@ -1,0 +1,86 @@
+"""The firmware on virtual boards (simavr, QEMU) over a real serial link.
+
+These are the product's regression: the real avr-gcc image, the real
+simulators, bytes through a socket, every reply checked.
+"""
+
+import random
+import struct
+
+import pytest
+
+from vehil.boards import open_board
+from vehil.errors import BoardError
+from vehil.ping import run_ping
+from vehil.protocol.schema import SCHEMA
+
+pytestmark = pytest.mark.hil
+
+BOARDS = ["simavr", "qemu"]
+
+
+@pytest.fixture(scope="module", params=BOARDS)
+def link(request, built):  # noqa: ANN001, ANN201
+    with open_board(request.param, timeout_s=3.0) as link:
+        link.board_name = request.param
+        yield link
+
+
+def test_board_announces_itself_with_its_clock_and_estimators(link) -> None:
+    info = link.info
+    assert info.f_cpu == 16_000_000
+    assert info.fields["baud"] == 1_000_000
+    assert info.fields["boot_count"] >= 1
+    assert info.fields["free_ram"] > 4096  # of 8192: the buffers leave room for estimators
+    assert "passthrough" in [e.name for e in info.estimators]
+
+
+def test_ten_thousand_pings_of_random_sizes_are_all_echoed(link) -> None:
+    summary = run_ping(link, count=10_000, size=None, window=8, seed=1)
+    assert len(summary.rtt_s) == 10_000  # run_ping raises on any loss or wrong echo
+    stats = link.stats()
+    assert (stats["crc_errors"], stats["cobs_errors"], stats["overruns"]) == (0, 0, 0)
+
+
+def test_config_with_a_bad_estimator_id_is_an_error_and_the_link_goes_on(link) -> None:
+    with pytest.raises(BoardError, match="UNKNOWN_ESTIMATOR"):
+        link.request("CONFIG", estimator=250, mode=SCHEMA.mode["F32"], params=b"")
+    assert link.request("PING", payload=b"still here").fields()["payload"] == b"still here"
+
+
+def test_passthrough_returns_ten_thousand_samples_in_order(link) -> None:
+    link.configure("passthrough", "F32")
+    rng = random.Random(2)
+    inputs = [struct.pack("<4f", *(rng.uniform(-1e3, 1e3) for _ in range(4))) for _ in range(10_000)]
+    replies = list(link.pipeline((("SAMPLE", {"inputs": x}) for x in inputs)))
+    assert [r.fields()["outputs"] for r in replies] == inputs
+    cycles = [r.fields()["cycles"] for r in replies]
+    assert 0 < min(cycles) and max(cycles) < 2_000  # a 16-byte copy, interrupts included
+
+
+def test_stack_high_water_mark_is_reported_and_below_the_stack(link) -> None:
+    stats = link.stats()
+    assert 0 < stats["stack_unused"] < stats["stack_size"]
+
+
+@pytest.mark.parametrize("baud", [115_200, 250_000, 500_000, 2_000_000, 1_000_000])
+def test_baud_rate_switches_at_run_time(link, baud: int) -> None:
+    link.set_baud(baud)
+    assert link.hello().fields["baud"] == baud
+    run_ping(link, count=50, size=16)
+
+
+def test_unreachable_baud_rate_is_refused_with_its_reason(link) -> None:
+    with pytest.raises(BoardError, match="BAD_BAUD.*unreachable"):
+        link.request("SET_BAUD", baud=300)
+    with pytest.raises(BoardError, match=r"BAD_BAUD.*error 8\.51 %"):
+        link.request("SET_BAUD", baud=921_600)  # nearest is 1,000,000: +8.5 %
+
+
+def test_reboot_request_restarts_the_board_and_it_announces_itself(link) -> None:
+    before = link.info.fields["boot_count"]
+    link.request("RESET", what=1)
+    ready = link.wait_ready(5.0)
+    assert ready["boot_count"] == before + 1
+    assert ready["reset_cause"] == SCHEMA.reset_cause["SOFTWARE"]
+    assert link.hello().fields["baud"] == 1_000_000

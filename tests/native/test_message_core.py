@@ -1,0 +1,92 @@
+"""The firmware's message core, run in-process through the native board.
+
+The same C runs on the ATmega2560; these pin its replies to each request,
+good and bad, without a simulator in the way.
+"""
+
+import struct
+
+import pytest
+
+from vehil.boards import open_board
+from vehil.errors import BoardError
+from vehil.protocol import frame
+from vehil.protocol.schema import SCHEMA
+
+
+@pytest.fixture
+def link(built):  # noqa: ANN001, ANN201
+    with open_board("native", timeout_s=0.2) as link:
+        yield link
+
+
+def test_info_describes_the_board_and_its_estimators(link) -> None:
+    info = link.info
+    assert info.fields["protocol"] == SCHEMA.protocol_version
+    assert info.fields["max_body"] == SCHEMA.max_body
+    assert info.reset_cause == "POWER_ON"
+    assert [e.name for e in info.estimators] == ["passthrough"]
+
+
+def test_hello_with_another_protocol_version_is_refused_naming_the_boards(link) -> None:
+    with pytest.raises(BoardError, match=f"VERSION.*v{SCHEMA.protocol_version}"):
+        link.request("HELLO", protocol=SCHEMA.protocol_version + 1)
+
+
+def test_config_with_an_unknown_estimator_id_is_an_error(link) -> None:
+    with pytest.raises(BoardError, match="UNKNOWN_ESTIMATOR.*id 200") as exc:
+        link.request("CONFIG", estimator=200, mode=0, params=b"")
+    assert exc.value.code == "UNKNOWN_ESTIMATOR" and exc.value.detail == 200
+
+
+def test_config_with_an_unknown_mode_is_an_error(link) -> None:
+    with pytest.raises(BoardError, match="UNSUPPORTED_MODE"):
+        link.request("CONFIG", estimator=0, mode=9, params=b"")
+
+
+def test_sample_before_config_is_refused(link) -> None:
+    with pytest.raises(BoardError, match="NOT_CONFIGURED"):
+        link.request("SAMPLE", inputs=b"\x01\x02\x03\x04")
+
+
+def test_passthrough_returns_its_inputs_in_order(link) -> None:
+    link.configure("passthrough", "F32")
+    inputs = [struct.pack("<2f", i, -i) for i in range(500)]
+    replies = list(link.pipeline((("SAMPLE", {"inputs": x}) for x in inputs), window=8))
+    assert [r.fields()["outputs"] for r in replies] == inputs
+    assert all(r.fields()["status"] == 0 for r in replies)
+
+
+def test_passthrough_refuses_a_sample_whose_echo_would_not_fit(link) -> None:
+    link.configure("passthrough", "F32")
+    with pytest.raises(BoardError, match="BAD_LENGTH.*123 bytes"):
+        link.request("SAMPLE", inputs=bytes(124))
+
+
+def test_unknown_request_type_is_an_error(link) -> None:
+    link.port.write(frame.encode(0x42, 9, b""))
+    got = link._read_frame(deadline=float("inf"))
+    assert got is not None
+    f = got[0]
+    assert (f.name, f.seq, f.fields()["code"]) == ("ERROR", 9, SCHEMA.error["UNKNOWN_TYPE"])
+
+
+def test_corrupt_and_oversize_frames_are_counted_and_the_link_recovers(link) -> None:
+    bad_crc = bytearray(frame.encode(0x02, 5, b"hello"))
+    bad_crc[3] ^= 0x40
+    link.port.write(bytes(bad_crc))
+    link.port.write(b"\x07" * (frame.WIRE_MAX + 10) + b"\x00")  # no frame is that long
+    link.port.write(b"\x02\x00")  # a COBS code that promises more than is there
+    with pytest.raises(Exception, match="OVERSIZE"):
+        link.request("PING", payload=b"x")
+    assert link.request("PING", payload=b"after").fields()["payload"] == b"after"
+    stats = link.stats()
+    assert stats["crc_errors"] == 1
+    assert stats["oversize"] == 1
+    assert stats["cobs_errors"] == 1
+
+
+def test_reboot_request_is_acked_and_the_board_announces_itself_again(link) -> None:
+    link.request("RESET", what=1)
+    assert link.wait_ready(1.0)["reset_cause"] == SCHEMA.reset_cause["SOFTWARE"]
+    assert link.hello().fields["boot_count"] == 2
