@@ -12,7 +12,6 @@ static volatile uint16_t rx_overruns;
 static volatile uint8_t tx_buf[UART_TX_SIZE];
 static uint8_t tx_head;
 static volatile uint8_t tx_tail; /* advanced by the ISR */
-static volatile uint8_t tx_busy; /* set when a byte is queued, cleared by TXC */
 
 static uint32_t current_baud;
 
@@ -42,8 +41,6 @@ ISR(USART0_UDRE_vect)
     tx_tail = (uint8_t)(tx_tail + 1u);
 }
 
-ISR(USART0_TX_vect) { tx_busy = 0; }
-
 int32_t uart_ubrr(uint32_t baud)
 {
     if (baud == 0) {
@@ -59,7 +56,7 @@ void uart_init(uint32_t baud)
     UBRR0 = (uint16_t)uart_ubrr(baud);
     UCSR0A = _BV(U2X0);
     UCSR0C = _BV(UCSZ01) | _BV(UCSZ00); /* 8N1 */
-    UCSR0B = _BV(RXEN0) | _BV(TXEN0) | _BV(RXCIE0) | _BV(TXCIE0);
+    UCSR0B = _BV(RXEN0) | _BV(TXEN0) | _BV(RXCIE0);
     current_baud = baud;
 }
 
@@ -85,14 +82,18 @@ void uart_write(uint8_t byte)
     ATOMIC_BLOCK(ATOMIC_RESTORESTATE)
     {
         tx_head = next;
-        tx_busy = 1;
+        UCSR0A |= _BV(TXC0); /* writing 1 clears it: it now means "this byte is out" */
         UCSR0B |= _BV(UDRIE0);
     }
 }
 
 void uart_flush(void)
 {
-    while (tx_busy || tx_tail != tx_head) {
+    while (tx_tail != tx_head) {
+    }
+    /* Then the shift register. Bounded: QEMU sends at once and may never set TXC. */
+    uint32_t spins = F_CPU / current_baud * 4u;
+    while (!(UCSR0A & _BV(TXC0)) && spins-- > 0u) {
     }
 }
 
