@@ -19,7 +19,7 @@ test: build lint
 	.venv/bin/pytest
 
 lint: setup
-	.venv/bin/ruff check host tests
+	.venv/bin/ruff check host tests platform firmware/build_id.py
 	.venv/bin/mypy
 
 clean:

@@ -21,10 +21,13 @@ def _add_board_options(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--board",
         default=DEFAULT_BOARD,
-        help=f"{', '.join(VIRTUAL_BOARDS)}, or a serial port / pyserial URL (default {DEFAULT_BOARD})",
+        help=f"{', '.join(VIRTUAL_BOARDS)}, or a serial port / pyserial URL "
+        f"(default {DEFAULT_BOARD})",
     )
     p.add_argument(
-        "--baud", type=int, default=None,
+        "--baud",
+        type=int,
+        default=None,
         help="switch the link to this baud rate after connecting (the firmware boots at 1000000)",
     )
     p.add_argument("--timeout", type=float, default=2.0, help="seconds to wait for each reply")

@@ -39,3 +39,7 @@ class BoardError(VehilError):
         self.code = code
         self.request = request
         self.detail = detail
+
+
+class BuildError(VehilError):
+    """A build step (compiler, PlatformIO, make) failed."""

@@ -138,7 +138,10 @@ class Link:
         while not self._inbox:
             if time.perf_counter() > deadline:
                 return None
-            data = self.port.read(max(1, self.port.in_waiting))
+            try:
+                data = self.port.read(max(1, self.port.in_waiting))
+            except serial.SerialException as exc:
+                raise LinkError(f"the connection to the board broke: {exc}") from None
             if data:
                 now = time.perf_counter()
                 self._inbox.extend((f, now) for f in self.decoder.feed(data))
@@ -146,15 +149,17 @@ class Link:
 
     def _send(self, name: str, seq: int, body: bytes) -> tuple[bytes, float]:
         wire = framing.encode(SCHEMA.messages[name].type, seq, body)
-        self.port.write(wire)
+        try:
+            self.port.write(wire)
+        except serial.SerialException as exc:
+            raise LinkError(f"the connection to the board broke: {exc}") from None
         return wire, time.perf_counter()
 
     def _unsolicited(self, f: framing.Frame) -> LinkError:
         if f.name == "INFO":
             cause = _RESET_CAUSES.get(f.fields().get("reset_cause", 0), "?")
             return BoardReset(
-                f"the board rebooted mid-session (reset cause {cause}); "
-                "its estimator state is gone"
+                f"the board rebooted mid-session (reset cause {cause}); its estimator state is gone"
             )
         if f.name == "ERROR":
             return LinkError(describe_error(f.fields()))
@@ -266,8 +271,13 @@ class Link:
             modes = tuple(m for m, bit in SCHEMA.mode.items() if e["modes"] & (1 << bit))
             estimators.append(
                 EstimatorInfo(
-                    i, e["id"], e["name"].decode("ascii", "replace"), modes,
-                    e["n_inputs"], e["n_outputs"], e["n_params"],
+                    i,
+                    e["id"],
+                    e["name"].decode("ascii", "replace"),
+                    modes,
+                    e["n_inputs"],
+                    e["n_outputs"],
+                    e["n_params"],
                 )
             )
         self.info = BoardInfo(fields, tuple(estimators))

@@ -18,9 +18,9 @@ class PingSummary:
     window: int
     baud: int
     f_cpu: int
-    rtt_s: np.ndarray            # host wall clock, per exchange
+    rtt_s: np.ndarray  # host wall clock, per exchange
     board_interval_s: np.ndarray  # board clock between consecutive PONGs
-    wire_bytes: float             # mean request + reply bytes on the wire
+    wire_bytes: float  # mean request + reply bytes on the wire
 
     @property
     def wire_limit_s(self) -> float:
@@ -58,7 +58,7 @@ def run_ping(
         stamps.append(fields["timestamp"])
         wire.append(reply.request_wire_bytes + reply.reply_wire_bytes)
     f_cpu = link.info.f_cpu
-    intervals = (np.diff(np.array(stamps, dtype=np.int64)) % 2**32) / f_cpu
+    intervals = np.mod(np.diff(np.array(stamps, dtype=np.int64)), 2**32) / f_cpu
     return PingSummary(
         count=count,
         payload_bytes=str(size) if size is not None else f"0..{room} random",

@@ -51,11 +51,14 @@ def test_config_with_a_bad_estimator_id_is_an_error_and_the_link_goes_on(link) -
 def test_passthrough_returns_ten_thousand_samples_in_order(link) -> None:
     link.configure("passthrough", "F32")
     rng = random.Random(2)
-    inputs = [struct.pack("<4f", *(rng.uniform(-1e3, 1e3) for _ in range(4))) for _ in range(10_000)]
-    replies = list(link.pipeline((("SAMPLE", {"inputs": x}) for x in inputs)))
+    inputs = [
+        struct.pack("<4f", *(rng.uniform(-1e3, 1e3) for _ in range(4))) for _ in range(10_000)
+    ]
+    replies = list(link.pipeline(("SAMPLE", {"inputs": x}) for x in inputs))
     assert [r.fields()["outputs"] for r in replies] == inputs
     cycles = [r.fields()["cycles"] for r in replies]
-    assert 0 < min(cycles) and max(cycles) < 2_000  # a 16-byte copy, interrupts included
+    if link.board_name == "simavr":  # cycle-exact; QEMU's Timer1 follows the host's clock
+        assert min(cycles) > 0 and max(cycles) < 2_000  # a 16-byte copy, interrupts included
 
 
 def test_stack_high_water_mark_is_reported_and_below_the_stack(link) -> None:

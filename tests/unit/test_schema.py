@@ -17,7 +17,9 @@ def test_requests_and_replies_have_distinct_types() -> None:
     types = [m.type for m in SCHEMA.messages.values()]
     assert len(types) == len(set(types))
     for m in SCHEMA.messages.values():
-        assert (m.type & 0x80 != 0) == (m.name in {"INFO", "PONG", "ACK", "RESULT", "STATS", "ESTIMATOR", "ERROR"})
+        assert (m.type & 0x80 != 0) == (
+            m.name in {"INFO", "PONG", "ACK", "RESULT", "STATS", "ESTIMATOR", "ERROR"}
+        )
 
 
 def test_pack_and_unpack_round_trip_with_a_trailing_bytes_field() -> None:

@@ -8,7 +8,7 @@ from collections.abc import Iterator
 import serial
 
 import vehil.transports  # noqa: F401  (registers native://)
-from vehil.errors import BoardStartError, BoardTimeout
+from vehil.errors import BoardStartError, BoardTimeout, LinkError
 from vehil.link import Link
 
 DEFAULT_BAUD = 1_000_000
@@ -56,6 +56,10 @@ class Board:
                 self.wait_ready(link)
                 link.hello()
                 yield link
+            except LinkError as exc:
+                if type(exc) is LinkError:  # say what the board's process said, if anything
+                    raise LinkError(f"{exc}{self.diagnostics()}") from exc
+                raise
             finally:
                 link.close()
         finally:

@@ -18,7 +18,7 @@ class BoardProcess:
     def __init__(self, argv: list[str], name: str):
         self.argv = argv
         self.name = name
-        self._stderr = tempfile.TemporaryFile()
+        self._stderr = tempfile.TemporaryFile()  # noqa: SIM115  (lives as long as the process)
         try:
             self.proc = subprocess.Popen(
                 argv,

@@ -44,8 +44,16 @@ class QemuBoard(Board):
         # wait=on: the CPU starts only once we are connected, so the ready frame is not lost.
         self.process = BoardProcess(
             [
-                exe, "-M", "mega2560", "-bios", str(self.elf), "-nographic", "-monitor", "none",
-                "-serial", f"tcp:127.0.0.1:{port},server=on,wait=on,nodelay=on",
+                exe,
+                "-M",
+                "mega2560",
+                "-bios",
+                str(self.elf),
+                "-nographic",
+                "-monitor",
+                "none",
+                "-serial",
+                f"tcp:127.0.0.1:{port},server=on,wait=on,nodelay=on",
             ],
             "qemu",
         )
@@ -63,7 +71,8 @@ class QemuBoard(Board):
                     raise self.process.failure("exited before accepting a connection") from None
                 if time.monotonic() > deadline:
                     raise self.process.failure(
-                        f"did not accept a connection on {url} within {self.connect_timeout_s:.0f} s"
+                        f"did not accept a connection on {url} "
+                        f"within {self.connect_timeout_s:.0f} s"
                     ) from None
                 time.sleep(0.02)
 

@@ -35,13 +35,11 @@ class SimavrBoard(Board):
         for path, what in ((SIMAVR_BRIDGE, "simavr bridge"), (self.elf, "firmware image")):
             if not path.exists():
                 raise BuildMissing(f"{what} {path} is missing: run `vehil build`")
-        self.process = BoardProcess(
-            [str(SIMAVR_BRIDGE), "--tcp", "0", *self.extra, str(self.elf)], "simavr"
-        )
+        self.process = BoardProcess([str(SIMAVR_BRIDGE), *self.extra, str(self.elf)], "simavr")
         line = self.process.read_line(timeout_s=10.0)
         if not line.startswith(_READY_PREFIX):
             raise self.process.failure(f"printed {line!r} instead of its URL")
-        return line[len(_READY_PREFIX):]
+        return line[len(_READY_PREFIX) :]
 
     def diagnostics(self) -> str:
         if self.process is None:

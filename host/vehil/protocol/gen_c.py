@@ -7,7 +7,6 @@ fails while the committed header differs from what this writes.
 from __future__ import annotations
 
 import sys
-from pathlib import Path
 
 from vehil.paths import PROJECT_ROOT
 from vehil.protocol.schema import C_TYPES, SCHEMA, Schema

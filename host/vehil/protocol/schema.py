@@ -73,7 +73,9 @@ class MessageType:
         if len(body) < size or (self.tail is None and len(body) != size):
             want = f"at least {size}" if self.tail else f"{size}"
             raise ValueError(f"{self.name} body is {len(body)} bytes, expected {want}")
-        values = dict(zip((f.name for f in self.fixed), self.struct.unpack_from(body)))
+        values = dict(
+            zip((f.name for f in self.fixed), self.struct.unpack_from(body), strict=False)
+        )
         if self.tail is not None:
             values[self.tail] = bytes(body[size:])
         return values

@@ -42,7 +42,7 @@ class Serial(SerialBase):
     _stash = b""  # read from the library, not yet taken by read()
 
     def open(self) -> None:
-        if self.is_open:
+        if self.is_open:  # type: ignore[has-type]
             raise SerialException("port already open")
         parsed = urllib.parse.urlsplit(self.portstr or "native://")
         if parsed.scheme != "native":

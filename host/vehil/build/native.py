@@ -1,0 +1,54 @@
+"""The native board: firmware/lib and firmware/native compiled into a host shared library.
+
+The C flags are platformio.ini's [vehil] c_flags, the ones the AVR image is built
+with, so the same sources see the same warnings and the same language.
+"""
+
+from __future__ import annotations
+
+import configparser
+import os
+import shlex
+import subprocess
+from pathlib import Path
+
+from vehil.build.build_id import build_id_defines
+from vehil.errors import BuildError
+from vehil.paths import NATIVE_LIB, PROJECT_ROOT
+
+_SOURCE_DIRS = (PROJECT_ROOT / "firmware" / "lib", PROJECT_ROOT / "firmware" / "native")
+
+
+def c_flags() -> list[str]:
+    ini = configparser.ConfigParser(interpolation=None, inline_comment_prefixes=(";",))
+    ini.read(PROJECT_ROOT / "platformio.ini")
+    return shlex.split(ini["vehil"]["c_flags"])
+
+
+def build_native(*, verbose: bool = False) -> Path:
+    sources = sorted(p for d in _SOURCE_DIRS for p in d.rglob("*.c"))
+    inputs = sources + [p for d in _SOURCE_DIRS for p in d.rglob("*.h")]
+    inputs.append(PROJECT_ROOT / "platformio.ini")
+    if NATIVE_LIB.exists() and all(p.stat().st_mtime <= NATIVE_LIB.stat().st_mtime for p in inputs):
+        return NATIVE_LIB
+    NATIVE_LIB.parent.mkdir(parents=True, exist_ok=True)
+    defines = [f"-D{k}={v}" for k, v in build_id_defines()]
+    cmd = [
+        os.environ.get("CC", "cc"),
+        *c_flags(),
+        *defines,
+        "-fPIC",
+        "-shared",
+        "-I",
+        str(_SOURCE_DIRS[0]),
+        "-o",
+        str(NATIVE_LIB),
+        *map(str, sources),
+        "-lm",
+    ]
+    if verbose:
+        print(shlex.join(cmd))
+    proc = subprocess.run(cmd, capture_output=True, text=True)
+    if proc.returncode != 0:
+        raise BuildError(f"native library build failed:\n{proc.stderr.strip()}")
+    return NATIVE_LIB

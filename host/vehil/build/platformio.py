@@ -1,0 +1,86 @@
+"""The firmware image, built by PlatformIO with no network.
+
+PlatformIO runs every build through its `tool-scons` package, which it would
+download. We install it from platform/tool-scons (a shim over the pip `scons`
+package) into a core dir of our own, with the metadata PlatformIO looks up
+(owner `platformio`, the range its dependencies.py pins), before each build.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+from platformio.dependencies import get_core_dependencies
+
+from vehil.errors import BuildError
+from vehil.paths import PROJECT_ROOT
+
+CORE_DIR = PROJECT_ROOT / ".pio" / "core"
+_TOOL_SCONS_SOURCE = PROJECT_ROOT / "platform" / "tool-scons"
+
+
+def firmware_elf(env: str = "offline") -> Path:
+    return PROJECT_ROOT / ".pio" / "build" / env / "firmware.elf"
+
+
+def install_tool_scons(core_dir: Path = CORE_DIR) -> Path:
+    target = core_dir / "packages" / "tool-scons"
+    manifest = json.loads((_TOOL_SCONS_SOURCE / "package.json").read_text())
+    meta = {
+        "type": "tool",
+        "name": "tool-scons",
+        "version": manifest["version"],
+        "spec": {
+            "owner": "platformio",
+            "id": None,
+            "name": "tool-scons",
+            "requirements": get_core_dependencies()["tool-scons"],
+            "uri": None,
+        },
+    }
+    target.mkdir(parents=True, exist_ok=True)
+    for name in ("package.json", "scons.py"):
+        shutil.copy2(_TOOL_SCONS_SOURCE / name, target / name)
+    (target / ".piopm").write_text(json.dumps(meta))
+    return target
+
+
+def _environment(core_dir: Path) -> dict[str, str]:
+    env = dict(os.environ)
+    env.update(
+        PLATFORMIO_CORE_DIR=str(core_dir),
+        PLATFORMIO_SETTING_ENABLE_TELEMETRY="No",
+        PLATFORMIO_SETTING_CHECK_PLATFORMIO_INTERVAL="36500",
+        PLATFORMIO_DISABLE_PROGRESSBAR="true",
+        PLATFORMIO_NO_ANSI="true",
+    )
+    return env
+
+
+_SIZE_LINE = re.compile(r"^(RAM|Flash):\s+\[.*\]\s+(.*)$")
+
+
+def build_firmware(env: str = "offline", *, verbose: bool = False) -> Path:
+    """Runs `pio run -e ENV`; prints PlatformIO's RAM/Flash lines; returns the ELF."""
+    install_tool_scons()
+    cmd = [sys.executable, "-m", "platformio", "run", "-d", str(PROJECT_ROOT), "-e", env]
+    if verbose:
+        cmd.append("-v")
+    proc = subprocess.run(cmd, env=_environment(CORE_DIR), capture_output=True, text=True)
+    output = proc.stdout + proc.stderr
+    if verbose:
+        print(output)
+    if proc.returncode != 0:
+        tail = "\n".join(output.strip().splitlines()[-30:])
+        raise BuildError(f"firmware build failed (`{' '.join(cmd[1:])}`):\n{tail}")
+    for line in output.splitlines():
+        m = _SIZE_LINE.match(line.strip())
+        if m and not verbose:
+            print(f"firmware {m.group(1)}: {m.group(2)}")
+    return firmware_elf(env)

@@ -1,0 +1,41 @@
+"""SCons build for the offline env: the same sources and flags as atmelavr, Debian's avr-gcc."""
+
+from SCons.Script import Builder, Default, DefaultEnvironment
+
+env = DefaultEnvironment()
+mcu = env.BoardConfig().get("build.mcu")
+f_cpu = env.BoardConfig().get("build.f_cpu")
+
+env.Replace(
+    AR="avr-gcc-ar",
+    AS="avr-gcc",
+    CC="avr-gcc",
+    CXX="avr-g++",
+    OBJCOPY="avr-objcopy",
+    RANLIB="avr-gcc-ranlib",
+    SIZETOOL="avr-size",
+    ARFLAGS=["rc"],
+    PROGNAME="firmware",
+    PROGSUFFIX=".elf",
+    # Flash is code plus initialised data; RAM is everything the linker places in SRAM.
+    SIZECHECKCMD="$SIZETOOL -A -d $SOURCES",
+    SIZEPROGREGEXP=r"^(?:\.text|\.data|\.bootloader)\s+(\d+).*",
+    SIZEDATAREGEXP=r"^(?:\.data|\.bss|\.noinit)\s+(\d+).*",
+)
+env.Append(
+    CCFLAGS=["-mmcu=" + mcu],
+    LINKFLAGS=["-mmcu=" + mcu],
+    CPPDEFINES=[("F_CPU", f_cpu)],
+    BUILDERS={
+        "ElfToHex": Builder(
+            action=env.VerboseAction(
+                "$OBJCOPY -O ihex -R .eeprom $SOURCES $TARGET", "Building $TARGET"
+            ),
+            suffix=".hex",
+        )
+    },
+)
+
+elf = env.BuildProgram()
+hex_image = env.ElfToHex("$BUILD_DIR/${PROGNAME}", elf)
+Default([hex_image])
