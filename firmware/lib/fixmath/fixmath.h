@@ -1,0 +1,40 @@
+/* Saturating, rounding int32 fixed point (Q formats), for the FIXED numeric mode.
+ *
+ * A value x with q fractional bits is stored as round(x * 2^q) in an int32.
+ * Every operation names the Q formats it works in, rounds to nearest (ties
+ * away from zero) and saturates to the int32 range; saturation ORs
+ * STATUS_SATURATED into *status, so nothing wraps silently. Only stdint types
+ * and C99, so the AVR build and the host build give identical bits. */
+#ifndef VEHIL_FIXMATH_FIXMATH_H
+#define VEHIL_FIXMATH_FIXMATH_H
+
+#include <stdint.h>
+
+#include "proto/messages.h"
+
+#define FX_MAX INT32_MAX
+#define FX_MIN INT32_MIN
+
+/* x clamped to int32, flagging saturation. */
+int32_t fx_sat(int64_t x, uint8_t *status);
+
+int32_t fx_add(int32_t a, int32_t b, uint8_t *status);
+int32_t fx_sub(int32_t a, int32_t b, uint8_t *status);
+int32_t fx_neg(int32_t a, uint8_t *status);
+
+/* x * 2^-shift rounded to nearest, ties away from zero; shift may be negative. */
+int64_t fx_round_shift(int64_t x, int8_t shift);
+
+/* a (qa) * b (qb) -> q_out. */
+int32_t fx_mul(int32_t a, uint8_t qa, int32_t b, uint8_t qb, uint8_t q_out, uint8_t *status);
+
+/* a (qa) / b (qb) -> q_out; b == 0 saturates towards a's sign and flags STATUS_SINGULAR. */
+int32_t fx_div(int32_t a, uint8_t qa, int32_t b, uint8_t qb, uint8_t q_out, uint8_t *status);
+
+/* a from q_in to q_out. */
+int32_t fx_rescale(int32_t a, uint8_t q_in, uint8_t q_out, uint8_t *status);
+
+/* sqrt(a) for a >= 0, both in q (negative input: 0 and STATUS_CLAMPED). */
+int32_t fx_sqrt(int32_t a, uint8_t q, uint8_t *status);
+
+#endif

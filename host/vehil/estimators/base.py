@@ -1,0 +1,122 @@
+"""What an estimator tells the host: its signals, parameters, numeric formats and reference.
+
+An estimator exists three times: a float64 reference (Python, here), float32 C and
+fixed-point C (firmware/lib/estimators, one source for the board and the native
+build). Its EstimatorSpec ties them together: the runner, the recorder and the
+report know estimators only through it.
+
+On the wire every value is 4 bytes in the configured mode's format: float32, or
+int32 with `q` fractional bits (Q(31-q).q) for that signal in FIXED mode.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Protocol
+
+import numpy as np
+
+MODES = ("F32", "FIXED")
+_INT32 = (-(2**31), 2**31 - 1)
+
+
+@dataclass(frozen=True)
+class Signal:
+    """One input or output: its name, unit, fixed-point format and meaning."""
+
+    name: str
+    unit: str
+    q: int = 16  # fractional bits in FIXED mode
+    doc: str = ""
+
+    @property
+    def lsb(self) -> float:
+        return 2.0**-self.q
+
+    @property
+    def fixed_range(self) -> tuple[float, float]:
+        return _INT32[0] * self.lsb, _INT32[1] * self.lsb
+
+
+@dataclass(frozen=True)
+class Param(Signal):
+    """A configuration value, with its default and the range the board accepts."""
+
+    default: float = 0.0
+    lo: float = -math.inf
+    hi: float = math.inf
+
+    def check(self, value: float) -> str | None:
+        if not math.isfinite(value) or not self.lo <= value <= self.hi:
+            return f"{self.name} = {value:g} {self.unit} is outside [{self.lo:g}, {self.hi:g}]"
+        return None
+
+
+class Reference(Protocol):
+    """The float64 reference: the same step the board runs, in double precision."""
+
+    def step(self, u: np.ndarray) -> np.ndarray: ...
+
+
+def encode_values(values: Sequence[float] | np.ndarray, signals: Sequence[Signal], mode: str) -> bytes:
+    """Values in the mode's wire format; FIXED rounds to nearest and saturates."""
+    x = np.asarray(values, dtype=np.float64)
+    if mode == "F32":
+        return x.astype("<f4").tobytes()
+    q = np.array([s.q for s in signals], dtype=np.float64)
+    scaled = np.rint(x * np.exp2(q))
+    return np.clip(scaled, *_INT32).astype("<i4").tobytes()
+
+
+def decode_values(data: bytes, signals: Sequence[Signal], mode: str) -> np.ndarray:
+    if mode == "F32":
+        return np.frombuffer(data, dtype="<f4").astype(np.float64)
+    q = np.array([s.q for s in signals], dtype=np.float64)
+    return np.frombuffer(data, dtype="<i4").astype(np.float64) * np.exp2(-q)
+
+
+@dataclass(frozen=True)
+class EstimatorSpec:
+    """An estimator as the host sees it. `name` is also the C descriptor's name."""
+
+    name: str
+    c_id: int
+    title: str
+    inputs: tuple[Signal, ...]
+    outputs: tuple[Signal, ...]
+    reference: Callable[[Mapping[str, float]], Reference]
+    params: tuple[Param, ...] = ()
+    modes: tuple[str, ...] = MODES
+    paper: str = ""  # the seed note it follows, e.g. "004-acc-speed-kalman-patent"
+    doc: str = ""
+    extra: dict[str, object] = field(default_factory=dict)
+
+    def param_values(self, given: Mapping[str, float]) -> dict[str, float]:
+        """Defaults overridden by `given`; raises ValueError naming each bad one."""
+        known = {p.name: p for p in self.params}
+        unknown = sorted(set(given) - set(known))
+        if unknown:
+            raise ValueError(
+                f"{self.name} has no parameter {', '.join(unknown)} "
+                f"(it has: {', '.join(known) or 'none'})"
+            )
+        values = {p.name: float(given.get(p.name, p.default)) for p in self.params}
+        problems = [m for p in self.params if (m := p.check(values[p.name]))]
+        if problems:
+            raise ValueError("; ".join(problems))
+        return values
+
+    def encode_params(self, values: Mapping[str, float], mode: str) -> bytes:
+        return encode_values([values[p.name] for p in self.params], self.params, mode)
+
+    def encode_inputs(self, u: Sequence[float] | np.ndarray, mode: str) -> bytes:
+        return encode_values(u, self.inputs, mode)
+
+    def decode_outputs(self, data: bytes, mode: str) -> np.ndarray:
+        return decode_values(data, self.outputs, mode)
+
+    def quantise_inputs(self, u: np.ndarray, mode: str) -> np.ndarray:
+        """The inputs exactly as the board sees them (for a reference fed the same bits)."""
+        return decode_values(encode_values(u, self.inputs, mode), self.inputs, mode)

@@ -1,0 +1,59 @@
+"""A plant is the ground truth: it simulates a vehicle and its sensors.
+
+An open-loop plant returns the whole drive at once (vectorised, seeded): the
+time base, the measured signals an estimator takes as inputs, and the true
+values of what estimators estimate. Names are the estimators' signal names, so
+the runner wires plant to estimator by name (a scenario can rename).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from vehil.estimators.base import Param, Signal
+
+
+@dataclass
+class Trace:
+    """A drive, sampled at the estimator's rate: t[k] and each signal's value at t[k]."""
+
+    t: np.ndarray
+    signals: dict[str, np.ndarray]
+    truth: dict[str, np.ndarray]
+    units: dict[str, str] = field(default_factory=dict)
+
+    def __len__(self) -> int:
+        return len(self.t)
+
+
+@dataclass(frozen=True)
+class PlantSpec:
+    name: str
+    title: str
+    params: tuple[Param, ...]
+    signals: tuple[Signal, ...]  # measured: what an estimator may take as input
+    truth: tuple[Signal, ...]  # true values an estimator's outputs are compared with
+    simulate: Callable[[Mapping[str, float], float, float, int], Trace]
+    doc: str = ""
+
+    def param_values(self, given: Mapping[str, float]) -> dict[str, float]:
+        known = {p.name: p for p in self.params}
+        unknown = sorted(set(given) - set(known))
+        if unknown:
+            raise ValueError(
+                f"plant {self.name} has no parameter {', '.join(unknown)} "
+                f"(it has: {', '.join(known) or 'none'})"
+            )
+        values = {p.name: float(given.get(p.name, p.default)) for p in self.params}
+        problems = [m for p in self.params if (m := p.check(values[p.name]))]
+        if problems:
+            raise ValueError("; ".join(problems))
+        return values
+
+    def run(self, params: Mapping[str, float], duration: float, T: float, seed: int) -> Trace:
+        trace = self.simulate(self.param_values(params), duration, T, seed)
+        trace.units = {s.name: s.unit for s in (*self.signals, *self.truth)}
+        return trace
