@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 from collections.abc import Sequence
+from pathlib import Path
 
 from rich.console import Console
 from rich.table import Table
@@ -31,6 +32,11 @@ def _add_board_options(p: argparse.ArgumentParser) -> None:
         help="switch the link to this baud rate after connecting (the firmware boots at 1000000)",
     )
     p.add_argument("--timeout", type=float, default=2.0, help="seconds to wait for each reply")
+
+
+def _add_run_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--realtime", action="store_true", help="pace samples at the sample time")
+    p.add_argument("--out", default=None, help="folder for run.arrow and the report")
 
 
 def _connect(args: argparse.Namespace):  # noqa: ANN202
@@ -139,6 +145,144 @@ def cmd_demo(args: argparse.Namespace) -> int:
         return 1 if mismatched else 0
 
 
+def _open_recording(path_str: str):  # noqa: ANN202
+    from vehil import record
+
+    path = Path(path_str)
+    if path.is_dir():
+        path = path / "run.arrow"
+    if not path.exists():
+        raise record.RecordingError(f"{path}: no such recording (give run.arrow or its folder)")
+    return record.read(path)
+
+
+def _finish_run(run, out_dir: Path | None, title: str) -> int:  # noqa: ANN001
+    from vehil import compare, report
+
+    series = compare.series_from_run(run)
+    figures = compare.evaluate(series)
+    sc = run.prepared.scenario
+    console.print(report.summary_table(figures, title))
+    rate = run.done / run.wall_s if run.wall_s else 0.0
+    console.print(
+        f"{run.done:,} of {len(run.prepared.inputs):,} samples in {run.wall_s:.2f} s "
+        f"({rate:,.0f} samples/s, {'real time' if run.realtime else 'lockstep'}); "
+        f"{run.ended}"
+    )
+    folder = out_dir or (run.recording.parent if run.recording else None)
+    if folder is not None:
+        context = {
+            "title": title,
+            "scenario": sc.name,
+            "board": run.board,
+            "mode": sc.mode,
+            "firmware": run.info.get("build_id") and f"{run.info['build_id']:08x}",
+            "ended": run.ended,
+            "error": run.error,
+            "wall_s": round(run.wall_s, 3),
+            "samples_per_s": round(rate, 1),
+            "recording": str(run.recording) if run.recording else None,
+        }
+        md = report.write(series, figures, context, folder)
+        console.print(f"recording {run.recording}\nreport    {md}")
+    if run.error:
+        console.print(f"[bold red]run {run.ended}:[/] {run.error}")
+        return 130 if run.ended == "interrupted" else 2
+    return 0 if figures["pass"] else 1
+
+
+def cmd_run(args: argparse.Namespace) -> int:
+    from vehil import runner, scenario
+
+    sc = scenario.load(args.scenario)
+    recording = Path(args.out) / "run.arrow" if args.out else None
+    run = runner.run(
+        sc,
+        args.board,
+        realtime=args.realtime,
+        window=args.window,
+        recording=recording,
+        timeout_s=args.timeout,
+    )
+    return _finish_run(run, None, f"{sc.name}: {sc.estimator.name} ({sc.mode}) on {args.board}")
+
+
+def cmd_replay(args: argparse.Namespace) -> int:
+    import tomllib
+
+    from vehil import runner, scenario
+
+    sc_path = scenario.find(args.scenario)
+    data = tomllib.loads(sc_path.read_text())
+    log_path = Path(args.log).resolve()
+    if log_path.is_dir():
+        log_path = log_path / "run.arrow"
+    fmt = {".arrow": "vehil", ".csv": "csv", ".mf4": "mdf4", ".mdf": "mdf4"}.get(log_path.suffix)
+    if fmt is None:
+        raise VehilError(f"{log_path}: unknown log type; give a .arrow recording, .csv or .mf4")
+    log = dict(data.get("log", {}))
+    log.update(path=str(log_path), format=fmt)
+    data.pop("plant", None)
+    data["log"] = log
+    data.setdefault("scenario", {}).pop("duration", None)
+    sc = scenario.parse(data, f"{sc_path} (replaying {log_path.name})", sc_path.resolve())
+    recording = Path(args.out) / "run.arrow" if args.out else None
+    run = runner.run(
+        sc, args.board, realtime=args.realtime, recording=recording, timeout_s=args.timeout
+    )
+    return _finish_run(run, None, f"replay of {log_path.name}: {sc.estimator.name} on {args.board}")
+
+
+def cmd_compare(args: argparse.Namespace) -> int:
+    from vehil import compare, report
+
+    a, b = _open_recording(args.run_a), _open_recording(args.run_b)
+    for rec in (a, b):
+        if rec.truncated:
+            console.print(f"[yellow]warning:[/] {rec.path}: {rec.truncated}")
+    d = compare.diff_runs(compare.series_from_recording(a), compare.series_from_recording(b))
+    console.print(report.diff_table(d, str(a.path), str(b.path)))
+    within = all(o["max_abs"] <= args.atol for o in d["outputs"].values())
+    same_length = d["lengths"][0] == d["lengths"][1]
+    verdict = d["identical"] or (args.atol > 0 and within and same_length)
+    console.print("[green]same results[/]" if verdict else "[bold red]results differ[/]")
+    return 0 if verdict else 1
+
+
+def cmd_scenarios(args: argparse.Namespace) -> int:
+    from vehil import scenario
+
+    t = Table(title="shipped scenarios (scenarios/)")
+    for col in ("name", "estimator", "mode", "source", "duration", "title"):
+        t.add_column(col)
+    for path in scenario.shipped():
+        try:
+            sc = scenario.load(path)
+        except VehilError as exc:
+            t.add_row(path.stem, f"[red]{exc}[/]", "", "", "", "")
+            continue
+        source = f"plant {sc.plant}" if sc.plant else f"log {sc.log.path.name}"  # type: ignore[union-attr]
+        t.add_row(
+            str(path.relative_to(scenario.SCENARIO_DIR).with_suffix("")),
+            sc.estimator.name,
+            sc.mode,
+            source,
+            f"{sc.duration:g} s",
+            sc.title,
+        )
+    console.print(t)
+    return 0
+
+
+def cmd_reproduce(args: argparse.Namespace) -> int:
+    from vehil import papers
+
+    known = papers.papers()
+    if args.paper not in known:
+        raise VehilError(f"no paper {args.paper!r}; known: {', '.join(sorted(known)) or 'none'}")
+    return int(known[args.paper].reproduce(console, args.board))
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="vehil", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True)
@@ -163,6 +307,34 @@ def main(argv: Sequence[str] | None = None) -> int:
     _add_board_options(p)
     p.add_argument("--samples", type=int, default=5000)
     p.set_defaults(func=cmd_demo)
+
+    p = sub.add_parser("run", help="run a scenario on a board, record it, and report")
+    p.add_argument("scenario", help="a scenario .toml, or the name of a shipped one")
+    _add_board_options(p)
+    _add_run_options(p)
+    p.add_argument("--window", type=int, default=None, help="samples in flight (lockstep)")
+    p.set_defaults(func=cmd_run)
+
+    p = sub.add_parser("replay", help="run a recorded drive (recording, CSV, MDF4) on a board")
+    p.add_argument("log", help="a run.arrow (or its folder), a .csv or a .mf4")
+    p.add_argument("--scenario", required=True, help="estimator, tolerances and column mapping")
+    _add_board_options(p)
+    _add_run_options(p)
+    p.set_defaults(func=cmd_replay)
+
+    p = sub.add_parser("compare", help="compare the board outputs of two recorded runs")
+    p.add_argument("run_a")
+    p.add_argument("run_b")
+    p.add_argument("--atol", type=float, default=0.0, help="accept differences up to this")
+    p.set_defaults(func=cmd_compare)
+
+    p = sub.add_parser("scenarios", help="list the shipped scenarios")
+    p.set_defaults(func=cmd_scenarios)
+
+    p = sub.add_parser("reproduce", help="a paper's published figures beside ours")
+    p.add_argument("paper", help="the paper's key, e.g. acc, braking, stlqf")
+    p.add_argument("--board", default=None, help="also run the board estimators on this board")
+    p.set_defaults(func=cmd_reproduce)
 
     args = parser.parse_args(argv)
     if getattr(args, "size", None) == -1:

@@ -188,8 +188,9 @@ static void on_sample(const frame_t *f)
     uint8_t status = est->step(estimator_state(), f->body, (uint8_t)f->body_len,
                                core.body + MSG_RESULT_FIXED_SIZE, &out_len);
     uint32_t elapsed = port_cycles() - start;
-    /* The probe's own cost is measured once at boot; a noisy host clock can undercut it. */
-    uint32_t cycles = elapsed > core.probe_cycles ? elapsed - core.probe_cycles : 0u;
+    /* The probe's own cost is measured once at boot; a noisy host clock can undercut it,
+     * and an emulated timer (QEMU) can even step back: both read as 0, never as a wrap. */
+    uint32_t cycles = (int32_t)elapsed > (int32_t)core.probe_cycles ? elapsed - core.probe_cycles : 0u;
     msg_result_t res = {.status = status, .cycles = cycles};
     msg_result_pack(&res, core.body);
     send(MSG_RESULT, f->seq, (uint16_t)(MSG_RESULT_FIXED_SIZE + out_len));

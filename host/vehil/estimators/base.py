@@ -60,7 +60,9 @@ class Reference(Protocol):
     def step(self, u: np.ndarray) -> np.ndarray: ...
 
 
-def encode_values(values: Sequence[float] | np.ndarray, signals: Sequence[Signal], mode: str) -> bytes:
+def encode_values(
+    values: Sequence[float] | np.ndarray, signals: Sequence[Signal], mode: str
+) -> bytes:
     """Values in the mode's wire format; FIXED rounds to nearest and saturates."""
     x = np.asarray(values, dtype=np.float64)
     if mode == "F32":

@@ -1,0 +1,170 @@
+"""Recordings: one self-describing file per run, written as the run goes.
+
+The format is an Arrow IPC stream (`.arrow`; pyarrow, pandas, polars and DuckDB
+read it). The schema's metadata carries everything needed to understand and
+redo the run: scenario, estimator signals with units and Q formats, board INFO,
+firmware build id, host versions. Samples follow in batches, each written as
+soon as it is full, so a crash loses at most the last batch; a final empty
+batch carries how the run ended. A stream cut short reads back up to its last
+whole batch, and says so.
+
+Columns: k, t, the inputs as sent (`in.<name>`), `truth.<name>`, `ref.<name>`
+(float64 reference), `board.<name>` (as decoded from the board), `status`
+(RESULT flags), `cycles` (board, per step), `rtt_s` (host round trip), `late`
+(real-time runs: the result came after the next sample was due).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import platform
+import sys
+from dataclasses import dataclass, field
+from importlib import metadata
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.ipc as ipc
+
+from vehil.errors import VehilError
+
+FORMAT = "vehil-run/1"
+BATCH_ROWS = 1000
+
+
+class RecordingError(VehilError):
+    """A recording cannot be read: the message says where it broke."""
+
+
+def host_versions() -> dict[str, str]:
+    versions = {"python": sys.version.split()[0], "platform": platform.platform()}
+    for pkg in ("vehil", "numpy", "scipy", "pyarrow", "pyserial", "platformio"):
+        with contextlib.suppress(metadata.PackageNotFoundError):
+            versions[pkg] = metadata.version(pkg)
+    return versions
+
+
+def columns(inputs: list[str], outputs: list[str], with_truth: list[str]) -> pa.Schema:
+    f64 = pa.float64()
+    fields = [pa.field("k", pa.int32()), pa.field("t", f64)]
+    fields += [pa.field(f"in.{n}", f64) for n in inputs]
+    fields += [pa.field(f"truth.{n}", f64) for n in with_truth]
+    fields += [pa.field(f"ref.{n}", f64) for n in outputs]
+    fields += [pa.field(f"board.{n}", f64) for n in outputs]
+    fields += [
+        pa.field("status", pa.uint8()),
+        pa.field("cycles", pa.uint32()),
+        pa.field("rtt_s", f64),
+        pa.field("late", pa.bool_()),
+    ]
+    return pa.schema(fields)
+
+
+class Recorder:
+    """Appends rows; flushes a batch every BATCH_ROWS rows; `close(end)` seals the file."""
+
+    def __init__(self, path: Path, schema: pa.Schema, header: dict[str, Any]):
+        self.path = path
+        path.parent.mkdir(parents=True, exist_ok=True)
+        header = {"format": FORMAT, "host": host_versions(), **header}
+        self.schema = schema.with_metadata({"vehil": json.dumps(header, default=_jsonable)})
+        self._sink = pa.OSFile(str(path), "wb")
+        self._writer = ipc.new_stream(
+            self._sink, self.schema, options=ipc.IpcWriteOptions(compression="zstd")
+        )
+        self._rows: dict[str, list[Any]] = {name: [] for name in self.schema.names}
+        self.rows_written = 0
+
+    def append(self, row: dict[str, Any]) -> None:
+        for name, values in self._rows.items():
+            values.append(row.get(name))
+        if len(self._rows["k"]) >= BATCH_ROWS:
+            self.flush()
+
+    def flush(self) -> None:
+        n = len(self._rows["k"])
+        if n:
+            self._writer.write_batch(pa.record_batch(self._rows, schema=self.schema))
+            self.rows_written += n
+            self._sink.flush()
+            for values in self._rows.values():
+                values.clear()
+
+    def close(self, end: dict[str, Any]) -> None:
+        self.flush()
+        end = {**end, "samples": self.rows_written}
+        empty = pa.record_batch({n: [] for n in self.schema.names}, schema=self.schema)
+        self._writer.write_batch(empty, custom_metadata={"end": json.dumps(end, default=_jsonable)})
+        self._writer.close()
+        self._sink.close()
+
+
+def _jsonable(x: Any) -> Any:
+    if isinstance(x, np.generic):
+        return x.item()
+    if isinstance(x, Path | bytes):
+        return str(x)
+    return repr(x)
+
+
+@dataclass
+class Recording:
+    """A run read back: its header, its columns, how it ended (or where it was cut)."""
+
+    path: Path
+    header: dict[str, Any]
+    data: dict[str, np.ndarray]
+    end: dict[str, Any] | None
+    truncated: str | None = None  # why reading stopped early, if it did
+    units: dict[str, str] = field(default_factory=dict)
+
+    def __len__(self) -> int:
+        return len(self.data["k"])
+
+    @property
+    def outputs(self) -> list[str]:
+        return [s["name"] for s in self.header["estimator"]["outputs"]]
+
+    @property
+    def inputs(self) -> list[str]:
+        return [s["name"] for s in self.header["estimator"]["inputs"]]
+
+
+def read(path: Path) -> Recording:
+    try:
+        reader = ipc.open_stream(pa.OSFile(str(path), "rb"))
+    except (OSError, pa.ArrowInvalid) as exc:
+        raise RecordingError(f"{path}: not a vehil recording ({exc})") from None
+    meta = reader.schema.metadata or {}
+    if b"vehil" not in meta:
+        raise RecordingError(f"{path}: an Arrow stream, but without vehil's header")
+    header = json.loads(meta[b"vehil"])
+    if header.get("format") != FORMAT:
+        raise RecordingError(f"{path}: format {header.get('format')!r}, this vehil reads {FORMAT}")
+    batches: list[pa.RecordBatch] = []
+    end: dict[str, Any] | None = None
+    truncated: str | None = None
+    while True:
+        try:
+            batch, custom = reader.read_next_batch_with_custom_metadata()
+        except StopIteration:
+            break
+        except (pa.ArrowInvalid, OSError) as exc:
+            truncated = (
+                f"the file is cut short after {sum(len(b) for b in batches)} samples ({exc})"
+            )
+            break
+        batches.append(batch)
+        if custom and b"end" in custom:
+            end = json.loads(custom[b"end"])
+    if end is None and truncated is None:
+        truncated = "the run did not finish writing (no end record)"
+    table = pa.Table.from_batches(batches, schema=reader.schema)
+    data = {name: table.column(name).to_numpy() for name in table.column_names}
+    units = {
+        s["name"]: s["unit"] for part in ("inputs", "outputs") for s in header["estimator"][part]
+    }
+    return Recording(Path(path), header, data, end, truncated, units)

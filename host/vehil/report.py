@@ -1,0 +1,188 @@
+"""Reports: a rich table for the terminal; Markdown with PNG plots and JSON figures on disk."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+from rich.table import Table
+
+from vehil.compare import Series
+
+
+def _g(x: float | None, unit: str = "") -> str:
+    if x is None:
+        return "-"
+    return f"{x:.4g}{(' ' + unit) if unit else ''}"
+
+
+def _verdict(ok: bool | None) -> str:
+    return "-" if ok is None else ("[green]pass[/]" if ok else "[bold red]FAIL[/]")
+
+
+def summary_table(figures: dict[str, Any], title: str) -> Table:
+    t = Table(title=title)
+    for col in (
+        "output",
+        "tolerance vs ref",
+        "RMSE vs ref",
+        "max |err| vs ref",
+        "",
+        "RMSE vs truth (board / ref)",
+        "",
+        "bit-exact",
+    ):
+        t.add_column(col, justify="right" if col not in ("output",) else "left")
+    for name, o in figures["outputs"].items():
+        unit = o["unit"]
+        tol = o["tolerance"]
+        tol_s = "-" if tol is None else f"{tol['abs']:g} + {tol['rel']:g}*|ref|"
+        ref = o["reference"]
+        truth = o.get("truth")
+        truth_s = "-" if truth is None else f"{_g(truth['rmse'])} / {_g(truth['reference_rmse'])}"
+        bit = o.get("bit_exact")
+        t.add_row(
+            f"{name} [{unit}]" if unit else name,
+            tol_s,
+            _g(ref["rmse"]),
+            _g(ref["max_abs"]) + (f" @k={ref['worst_k']}" if ref["worst_k"] is not None else ""),
+            _verdict(ref["pass"] if tol is not None else None),
+            truth_s,
+            _verdict(truth["pass"] if truth is not None and tol and tol["truth_rms"] else None),
+            "-" if bit is None else (f"{bit['mismatches']} differ " + _verdict(bit["pass"])),
+        )
+    c, r = figures["cycles"], figures["rtt_ms"]
+    flags = ", ".join(f"{k} x{v}" for k, v in figures["status"].items() if v) or "none"
+    t.caption = (
+        f"{figures['samples']:,} samples; cycles/step min {_g(c['min'])} median {_g(c['median'])} "
+        f"max {_g(c['max'])}; round trip p50 {_g(r['p50'])} ms p99 {_g(r['p99'])} ms; "
+        f"late {figures['late']}; status flags: {flags}"
+    )
+    return t
+
+
+def _row_cells(o: dict[str, Any]) -> list[str]:
+    tol, ref, truth = o["tolerance"], o["reference"], o.get("truth")
+    tol_s = "-" if tol is None else f"{tol['abs']:g} + {tol['rel']:g}·abs(ref)"
+    truth_s = "-" if truth is None else f"{_g(truth['rmse'])} / {_g(truth['reference_rmse'])}"
+    verdict = "pass" if ref["pass"] else "FAIL"
+    return [tol_s, _g(ref["rmse"]), _g(ref["max_abs"]), verdict, truth_s]
+
+
+def _plots(s: Series, out: Path) -> list[tuple[str, str]]:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    made = []
+    n = len(s.board)
+    t = s.t[:n]
+    for j, name in enumerate(s.names):
+        unit = s.units.get(name, "")
+        has_truth = name in s.truth
+        rows = 3 if has_truth else 2
+        fig, axes = plt.subplots(
+            rows,
+            1,
+            figsize=(9, 2.2 * rows + 1.2),
+            sharex=True,
+            height_ratios=[2] + [1] * (rows - 1),
+        )
+        ax = axes[0]
+        if has_truth:
+            ax.plot(t, s.truth[name][:n], color="0.6", lw=2.5, label="truth")
+        ax.plot(t, s.reference[:n, j], color="tab:blue", lw=1.2, label="float64 reference")
+        ax.plot(t, s.board[:, j], color="tab:orange", lw=0.9, ls="--", label="board")
+        ax.set_ylabel(f"{name} [{unit}]")
+        ax.legend(loc="best", fontsize=8)
+        # Numeric error (board vs reference) and estimation error (vs truth) differ by
+        # orders of magnitude: each gets its own axis.
+        errors = [("board - reference", s.board[:, j] - s.reference[:n, j], "tab:red")]
+        if has_truth:
+            errors.append(("board - truth", s.board[:, j] - s.truth[name][:n], "0.3"))
+        for ax_err, (label, err, color) in zip(axes[1:], errors, strict=True):
+            ax_err.plot(t, err, color=color, lw=0.7)
+            ax_err.set_ylabel(f"{label}\n[{unit}]", fontsize=8)
+        for a in axes:
+            a.grid(alpha=0.3)
+        axes[-1].set_xlabel("t [s]")
+        fig.tight_layout()
+        file = f"{name}.png"
+        fig.savefig(out / file, dpi=110)
+        plt.close(fig)
+        made.append((f"{name}: estimate vs reference vs truth, and errors", file))
+    for what, data, xlabel, file in (
+        ("cycles per step", s.cycles, "cycles", "cycles.png"),
+        ("round trip (host clock)", s.rtt_s * 1e3, "ms", "latency.png"),
+    ):
+        if not len(data):
+            continue
+        fig, ax = plt.subplots(figsize=(7, 3.5))
+        ax.hist(data, bins=60, color="tab:purple")
+        ax.set_xlabel(xlabel)
+        ax.set_ylabel("samples")
+        ax.set_title(what)
+        ax.grid(alpha=0.3)
+        fig.tight_layout()
+        fig.savefig(out / file, dpi=110)
+        plt.close(fig)
+        made.append((what, file))
+    return made
+
+
+def write(s: Series, figures: dict[str, Any], context: dict[str, Any], out: Path) -> Path:
+    """report.md, figures.json and PNGs into `out`; returns the Markdown file."""
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "figures.json").write_text(json.dumps({**context, **figures}, indent=2, default=str))
+    plots = _plots(s, out)
+    lines = [f"# {context.get('title', 'vehil run')}", ""]
+    for k in ("scenario", "board", "mode", "firmware", "ended", "error", "wall_s", "recording"):
+        if context.get(k) is not None:
+            lines.append(f"- **{k}**: {context[k]}")
+    lines += [
+        "",
+        "| output | tolerance | RMSE vs ref | max abs vs ref | pass "
+        "| RMSE vs truth (board / ref) |",
+        "|---|---|---|---|---|---|",
+    ]
+    for name, o in figures["outputs"].items():
+        cells = _row_cells(o)
+        lines.append(f"| {name} [{o['unit']}] | " + " | ".join(cells) + " |")
+    c, r = figures["cycles"], figures["rtt_ms"]
+    lines += [
+        "",
+        f"Cycles per step: min {_g(c['min'])}, median {_g(c['median'])}, max {_g(c['max'])}. "
+        f"Round trip: p50 {_g(r['p50'])} ms, p99 {_g(r['p99'])} ms. "
+        f"Late samples: {figures['late']}.",
+        "",
+        f"Overall: **{'PASS' if figures['pass'] else 'FAIL'}**",
+        "",
+    ]
+    for caption, file in plots:
+        lines += [f"## {caption}", "", f"![{caption}]({file})", ""]
+    md = out / "report.md"
+    md.write_text("\n".join(lines))
+    return md
+
+
+def diff_table(d: dict[str, Any], a: str, b: str) -> Table:
+    t = Table(title=f"{b}\nagainst {a}")
+    for col in ("output", "identical", "differing samples", "first at k", "max |b - a|"):
+        t.add_column(col, justify="right" if col != "output" else "left")
+    for name, o in d["outputs"].items():
+        t.add_row(
+            name,
+            "[green]yes[/]" if o["identical"] else "[red]no[/]",
+            f"{o['differing_samples']:,}",
+            "-" if o["first_difference_k"] is None else str(o["first_difference_k"]),
+            f"{o['max_abs']:.4g}",
+        )
+    ca, cb = d["cycles_median"]["a"], d["cycles_median"]["b"]
+    t.caption = (
+        f"{d['samples']:,} samples compared (lengths {d['lengths'][0]:,} and {d['lengths'][1]:,}); "
+        f"median cycles/step {_g(ca)} -> {_g(cb)}"
+        + (f" ({(cb - ca) / ca * 100:+.1f} %)" if ca and cb else "")
+    )
+    return t

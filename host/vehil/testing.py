@@ -1,0 +1,83 @@
+"""pytest fixtures for HIL tests of your own (a pytest plugin, loaded automatically).
+
+    def test_my_estimator_keeps_up(run_scenario):
+        result = run_scenario("sine", board="qemu")
+        result.assert_passed()
+
+`--vehil-board NAME` picks the board for tests that do not name one (default simavr).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import pytest
+from rich.console import Console
+
+from vehil.boards import open_board
+from vehil.link import Link
+
+
+@dataclass
+class ScenarioResult:
+    """A finished run with its figures, its recording and its report folder."""
+
+    run: Any
+    figures: dict[str, Any]
+    recording: Path | None
+
+    @property
+    def passed(self) -> bool:
+        return self.run.error is None and bool(self.figures["pass"])
+
+    def assert_passed(self) -> None:
+        if self.passed:
+            return
+        from vehil.report import summary_table
+
+        console = Console(width=160, record=True)
+        console.print(summary_table(self.figures, self.run.prepared.scenario.name))
+        why = self.run.error or "outputs outside tolerance"
+        raise AssertionError(f"{why} (recording {self.recording})\n{console.export_text()}")
+
+
+def pytest_addoption(parser: pytest.Parser) -> None:
+    parser.addoption(
+        "--vehil-board", default="simavr", help="board for vehil HIL fixtures (default simavr)"
+    )
+
+
+@pytest.fixture
+def vehil_board_name(request: pytest.FixtureRequest) -> str:
+    return str(request.config.getoption("--vehil-board"))
+
+
+@pytest.fixture
+def board(vehil_board_name: str) -> Iterator[Link]:
+    """A started board with its link open and INFO read; stopped after the test."""
+    with open_board(vehil_board_name, timeout_s=3.0) as link:
+        yield link
+
+
+@pytest.fixture
+def run_scenario(vehil_board_name: str, tmp_path: Path) -> Callable[..., ScenarioResult]:
+    """run_scenario(NAME_OR_PATH_OR_SCENARIO, board=None, duration=None, **run options)."""
+    from vehil import compare, runner, scenario
+
+    def _run(
+        which: Any, board: str | None = None, duration: float | None = None, **options: Any
+    ) -> ScenarioResult:
+        sc = which if isinstance(which, scenario.Scenario) else scenario.load(which)
+        if duration is not None:
+            sc = dataclasses.replace(sc, duration=duration)
+        name = board or vehil_board_name
+        rec = tmp_path / f"{sc.name}-{name}.arrow"
+        result = runner.run(sc, name, recording=rec, console=Console(quiet=True), **options)
+        figures = compare.evaluate(compare.series_from_run(result))
+        return ScenarioResult(result, figures, result.recording)
+
+    return _run

@@ -1,0 +1,52 @@
+"""Scenarios streamed through the firmware on simavr and QEMU: the product's regression."""
+
+import threading
+
+import numpy as np
+import pytest
+
+from vehil import record, runner, scenario
+from vehil.boards.simavr import SimavrBoard
+
+pytestmark = pytest.mark.hil
+
+
+@pytest.mark.parametrize(("board", "duration"), [("simavr", 10.0), ("qemu", 2.0)])
+def test_the_synthetic_scenario_passes_on_each_virtual_board(run_scenario, board, duration) -> None:  # noqa: ANN001
+    result = run_scenario("sine", board=board, duration=duration)
+    result.assert_passed()
+    assert result.run.done == int(duration / 0.002)
+
+
+def test_fixed_point_on_the_chip_is_bit_exact_with_the_native_build(run_scenario) -> None:  # noqa: ANN001
+    result = run_scenario("sine-fixed", board="simavr", duration=4.0)
+    result.assert_passed()
+    assert result.figures["outputs"]["y"]["bit_exact"]["mismatches"] == 0
+    assert 0 < result.figures["cycles"]["median"] < 1000
+
+
+def test_real_time_pacing_holds_the_sample_rate(run_scenario) -> None:  # noqa: ANN001
+    result = run_scenario("sine", board="simavr", duration=1.0, realtime=True)
+    result.assert_passed()
+    assert result.run.wall_s >= 0.95  # 500 samples at 2 ms cannot finish sooner
+    assert len(result.run.late) == 500
+
+
+def test_a_board_that_dies_mid_run_fails_the_run_and_keeps_the_recording(tmp_path) -> None:  # noqa: ANN001
+    board = SimavrBoard(timeout_s=0.5)
+    sc = scenario.load("sine")
+
+    def kill_when_running() -> None:
+        while board.process is None:
+            threading.Event().wait(0.01)
+        threading.Event().wait(1.5)
+        board.process.proc.kill()
+
+    threading.Thread(target=kill_when_running, daemon=True).start()
+    run = runner.run(sc, board, realtime=True, recording=tmp_path / "run.arrow")
+    assert run.ended == "failed"
+    assert "connection to the board broke" in run.error or "no reply" in run.error
+    rec = record.read(tmp_path / "run.arrow")
+    assert rec.end["ended"] == "failed" and rec.end["error"] == run.error
+    assert 0 < len(rec) == run.done < sc.samples
+    np.testing.assert_array_equal(rec.data["k"], np.arange(len(rec)))

@@ -1,0 +1,61 @@
+"""The runner end to end on the native board: run, record, report, replay, compare."""
+
+import dataclasses
+
+import numpy as np
+
+from vehil import compare, record, report, runner, scenario
+
+
+def test_a_float_run_matches_the_reference_and_is_recorded(run_scenario, tmp_path) -> None:  # noqa: ANN001
+    result = run_scenario("sine", board="native", duration=2.0)
+    result.assert_passed()
+    rec = record.read(result.recording)
+    assert len(rec) == 1000 and rec.end["ended"] == "completed"
+    assert rec.header["estimator"]["name"] == "passthrough"
+    assert rec.header["board"]["info"]["f_cpu"] == 1_000_000_000
+    # The board's float32 result is the input rounded once: never further than half an ulp.
+    ref = rec.data["ref.y"]
+    assert np.all(np.abs(rec.data["board.y"] - ref) <= np.abs(ref) * 2.0**-24)
+    md = report.write(
+        compare.series_from_recording(rec), result.figures, {"title": "t"}, tmp_path / "report"
+    )
+    assert "PASS" in md.read_text()
+    assert (tmp_path / "report" / "y.png").stat().st_size > 10_000
+
+
+def test_fixed_point_outputs_are_the_inputs_rounded_to_the_q_format(run_scenario) -> None:  # noqa: ANN001
+    result = run_scenario("sine-fixed", board="native", duration=1.0)
+    result.assert_passed()
+    run = result.run
+    lsb = 2.0**-24
+    np.testing.assert_array_equal(
+        run.board_out[:, 0], np.round(run.prepared.inputs[:, 0] / lsb) * lsb
+    )
+
+
+def test_a_replayed_recording_gives_identical_results(run_scenario, tmp_path) -> None:  # noqa: ANN001
+    first = run_scenario("sine", board="native", duration=1.0)
+    sc = scenario.load("sine")
+    data = dict(sc.raw)
+    data.pop("plant")
+    data["scenario"] = {k: v for k, v in data["scenario"].items() if k != "duration"}
+    data["log"] = {"path": str(first.recording), "format": "vehil"}
+    replay = scenario.parse(data, "replay", sc.path)
+    second = runner.run(replay, "native", recording=tmp_path / "replay.arrow")
+    assert second.ended == "completed" and second.done == 500
+    a = compare.series_from_recording(record.read(first.recording))
+    b = compare.series_from_recording(record.read(second.recording))
+    assert compare.diff_runs(a, b)["identical"]
+    changed = dataclasses.replace(b, board=b.board + 1e-6)
+    d = compare.diff_runs(a, changed)
+    assert not d["identical"] and d["outputs"]["y"]["first_difference_k"] == 0
+
+
+def test_a_tolerance_too_tight_fails_and_names_the_worst_sample(run_scenario) -> None:  # noqa: ANN001
+    sc = scenario.load("sine")
+    tight = dataclasses.replace(sc, tolerances={"y": scenario.Tolerance(abs=0.0, rel=1e-9)})
+    result = run_scenario(tight, board="native", duration=1.0)
+    assert not result.passed
+    ref = result.figures["outputs"]["y"]["reference"]
+    assert ref["outside_tolerance"] > 0 and ref["worst_k"] is not None

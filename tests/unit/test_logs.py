@@ -1,0 +1,64 @@
+"""Recorded drives: columns, units and values are checked, and each problem is located."""
+
+import math
+
+import numpy as np
+import pytest
+
+from vehil import estimators
+from vehil.logs import LogError, trace_from_log
+from vehil.scenario import LogSource
+
+SPEC = estimators.get("passthrough")
+
+
+def log(path, **kw) -> LogSource:  # noqa: ANN001
+    return LogSource(
+        path=path,
+        format="csv",
+        time=kw.get("time", "t"),
+        columns=kw.get("columns", {"y": "speed"}),
+        truth=kw.get("truth", {}),
+    )
+
+
+def csv(tmp_path, text: str):  # noqa: ANN001, ANN201
+    path = tmp_path / "drive.csv"
+    path.write_text(text)
+    return path
+
+
+def test_a_csv_log_is_resampled_onto_the_sample_grid(tmp_path) -> None:  # noqa: ANN001
+    path = csv(tmp_path, "t [s],speed [1],ref [1]\n0,0,0\n0.1,1,2\n0.2,2,4\n")
+    trace = trace_from_log(log(path, truth={"y": "ref"}), SPEC, 0.05, math.inf)
+    np.testing.assert_allclose(trace.t, [0, 0.05, 0.1, 0.15, 0.2])
+    np.testing.assert_allclose(trace.signals["y"], [0, 0.5, 1, 1.5, 2])
+    np.testing.assert_allclose(trace.truth["y"], [0, 1, 2, 3, 4])
+
+
+@pytest.mark.parametrize(
+    ("text", "kw", "message"),
+    [
+        ("t [s],v [1]\n0,1\n0.1,2\n", {}, r"no column 'speed' for input y; columns: t, v"),
+        ("t [s],speed [km/h]\n0,1\n0.1,2\n", {}, r"column 'speed' is in 'km/h'; input y needs '1'"),
+        (
+            "t [s],speed\n0,1\n0.1,nan\n",
+            {},
+            r"column 'speed' has 1 NaN/inf values, the first at sample 1",
+        ),
+        (
+            "t [s],speed\n0,1\n0.1,2\n0.2\n",
+            {},
+            r"line 4 has 1 fields, the header 2 \(the file looks cut short\)",
+        ),
+        ("t [s],speed\n0,1\n0.1,fast\n", {}, r"line 3, column speed: 'fast' is not a number"),
+        ("time,speed\n0,1\n0.1,2\n", {}, r"no time column 't'"),
+        ("t,speed\n0,1\n0,2\n", {}, r"time must increase strictly"),
+        ("", {}, r"empty file"),
+    ],
+)
+def test_bad_logs_are_refused_with_file_and_place(tmp_path, text, kw, message) -> None:  # noqa: ANN001
+    path = csv(tmp_path, text)
+    with pytest.raises(LogError, match=message) as exc:
+        trace_from_log(log(path, **kw), SPEC, 0.05, math.inf)
+    assert str(path) in str(exc.value)

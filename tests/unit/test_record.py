@@ -1,0 +1,76 @@
+"""Recordings read back whole, and a file cut short reads back up to its last batch."""
+
+import numpy as np
+import pytest
+
+from vehil import record
+
+
+def write(path, rows: int, *, close: bool = True) -> None:  # noqa: ANN001
+    schema = record.columns(["u"], ["y"], ["y"])
+    rec = record.Recorder(
+        path,
+        schema,
+        {
+            "estimator": {
+                "inputs": [{"name": "u", "unit": "m/s", "q": 16}],
+                "outputs": [{"name": "y", "unit": "m", "q": 16}],
+            }
+        },
+    )
+    for k in range(rows):
+        rec.append(
+            {
+                "k": k,
+                "t": k * 0.01,
+                "in.u": k * 1.0,
+                "truth.y": -k,
+                "ref.y": 2.0 * k,
+                "board.y": 2.0 * k + 1e-7,
+                "status": 0,
+                "cycles": 100 + k,
+                "rtt_s": 1e-3,
+                "late": False,
+            }
+        )
+    if close:
+        rec.close({"ended": "completed"})
+    else:
+        rec.flush()
+
+
+def test_a_recording_reads_back_with_its_header_and_end(tmp_path) -> None:  # noqa: ANN001
+    path = tmp_path / "run.arrow"
+    write(path, 2500)
+    rec = record.read(path)
+    assert len(rec) == 2500 and rec.truncated is None
+    assert rec.end["ended"] == "completed" and rec.end["samples"] == 2500
+    assert rec.units == {"u": "m/s", "y": "m"}
+    assert rec.header["host"]["python"]
+    np.testing.assert_array_equal(rec.data["cycles"], np.arange(2500) + 100)
+
+
+def test_a_file_cut_short_keeps_every_whole_batch(tmp_path) -> None:  # noqa: ANN001
+    path = tmp_path / "run.arrow"
+    write(path, 2500)
+    data = path.read_bytes()
+    path.write_bytes(data[: len(data) - 400])  # into the last data batch or the end record
+    rec = record.read(path)
+    assert rec.truncated is not None
+    assert len(rec) in (2000, 2500)
+    np.testing.assert_array_equal(rec.data["k"], np.arange(len(rec)))
+
+
+def test_a_run_that_never_closed_says_so(tmp_path) -> None:  # noqa: ANN001
+    path = tmp_path / "run.arrow"
+    write(path, 1500, close=False)
+    rec = record.read(path)
+    assert len(rec) == 1500 and rec.end is None
+    assert "did not finish" in rec.truncated
+
+
+def test_other_files_are_refused_by_name(tmp_path) -> None:  # noqa: ANN001
+    path = tmp_path / "notes.arrow"
+    path.write_text("hello")
+    with pytest.raises(record.RecordingError, match="notes.arrow: not a vehil recording"):
+        record.read(path)
