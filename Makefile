@@ -1,5 +1,5 @@
 # The two commands of the README, and the steps under them.
-#   make demo   set up, build, and run the demo on the default virtual board
+#   make demo   set up, build, and run a scenario on the default virtual board, with a report
 #   make test   set up, build, and run every test (unit, native C, HIL on simavr and QEMU)
 
 VEHIL := .venv/bin/vehil
@@ -13,7 +13,7 @@ build: setup
 	$(VEHIL) build
 
 demo: build
-	$(VEHIL) demo
+	$(VEHIL) run sine --board simavr
 
 test: build lint
 	.venv/bin/pytest

@@ -50,3 +50,29 @@ def test_a_board_that_dies_mid_run_fails_the_run_and_keeps_the_recording(tmp_pat
     assert rec.end["ended"] == "failed" and rec.end["error"] == run.error
     assert 0 < len(rec) == run.done < sc.samples
     np.testing.assert_array_equal(rec.data["k"], np.arange(len(rec)))
+
+
+def test_ctrl_c_stops_a_run_cleanly_and_keeps_what_was_recorded(tmp_path, built) -> None:  # noqa: ANN001
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    out = tmp_path / "run"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "vehil", "run", "sine", "--realtime", "--out", str(out)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+    )
+    deadline = time.monotonic() + 20
+    while not (out / "run.arrow").exists() and time.monotonic() < deadline:
+        time.sleep(0.05)
+    time.sleep(1.0)
+    proc.send_signal(signal.SIGINT)
+    output, _ = proc.communicate(timeout=20)
+    assert proc.returncode == 130, output
+    assert "interrupted" in output
+    rec = record.read(out / "run.arrow")
+    assert rec.end["ended"] == "interrupted" and 0 < len(rec) < 10_000
+    assert (out / "report.md").exists()

@@ -62,3 +62,23 @@ def test_bad_logs_are_refused_with_file_and_place(tmp_path, text, kw, message) -
     with pytest.raises(LogError, match=message) as exc:
         trace_from_log(log(path, **kw), SPEC, 0.05, math.inf)
     assert str(path) in str(exc.value)
+
+
+def test_an_mdf4_log_gives_its_channels_with_their_units(tmp_path) -> None:  # noqa: ANN001
+    from asammdf import MDF, Signal
+
+    t = np.arange(0, 1, 0.01)
+    mdf = MDF(version="4.10")
+    mdf.append([Signal(np.sin(t), t, name="speed", unit="1"), Signal(t, t, name="odo", unit="m")])
+    path = tmp_path / "drive.mf4"
+    mdf.save(path, overwrite=True)
+    source = LogSource(path=path, format="mdf4", time="t", columns={"y": "speed"}, truth={})
+    trace = trace_from_log(source, SPEC, 0.02, math.inf)
+    assert len(trace) == 50
+    np.testing.assert_allclose(trace.signals["y"], np.sin(np.arange(50) * 0.02), atol=1e-12)
+    wrong_unit = LogSource(path=path, format="mdf4", time="t", columns={"y": "odo"}, truth={})
+    with pytest.raises(LogError, match="column 'odo' is in 'm'; input y needs '1'"):
+        trace_from_log(wrong_unit, SPEC, 0.02, math.inf)
+    missing = LogSource(path=path, format="mdf4", time="t", columns={"y": "rpm"}, truth={})
+    with pytest.raises(LogError, match="no channel 'rpm'"):
+        trace_from_log(missing, SPEC, 0.02, math.inf)
