@@ -17,40 +17,41 @@ def _g(x: float | None, unit: str = "") -> str:
     return f"{x:.4g}{(' ' + unit) if unit else ''}"
 
 
-def _verdict(ok: bool | None) -> str:
-    return "-" if ok is None else ("[green]pass[/]" if ok else "[bold red]FAIL[/]")
-
-
 def summary_table(figures: dict[str, Any], title: str) -> Table:
     t = Table(title=title)
+    t.add_column("output")
     for col in (
-        "output",
-        "tolerance vs ref",
+        "tolerance",
         "RMSE vs ref",
-        "max |err| vs ref",
-        "",
-        "RMSE vs truth (board / ref)",
-        "",
-        "bit-exact",
+        "max |err| (k)",
+        "RMSE vs truth\nboard / ref",
+        "result",
     ):
-        t.add_column(col, justify="right" if col not in ("output",) else "left")
+        t.add_column(col, justify="right")
     for name, o in figures["outputs"].items():
         unit = o["unit"]
         tol = o["tolerance"]
-        tol_s = "-" if tol is None else f"{tol['abs']:g} + {tol['rel']:g}*|ref|"
+        tol_s = "-" if tol is None else f"{tol['abs']:g} + {tol['rel']:g}·|ref|"
         ref = o["reference"]
         truth = o.get("truth")
         truth_s = "-" if truth is None else f"{_g(truth['rmse'])} / {_g(truth['reference_rmse'])}"
+        failed = [
+            what
+            for what, part in (("ref", ref), ("truth", truth), ("bits", o.get("bit_exact")))
+            if part is not None and not part.get("pass", True)
+        ]
         bit = o.get("bit_exact")
+        verdict = "[bold red]FAIL " + ", ".join(failed) + "[/]" if failed else "[green]pass[/]"
+        if bit is not None and not failed:
+            verdict = "[green]pass, bit-exact[/]"
+        worst = f" ({ref['worst_k']})" if ref["worst_k"] is not None else ""
         t.add_row(
             f"{name} [{unit}]" if unit else name,
             tol_s,
             _g(ref["rmse"]),
-            _g(ref["max_abs"]) + (f" @k={ref['worst_k']}" if ref["worst_k"] is not None else ""),
-            _verdict(ref["pass"] if tol is not None else None),
+            _g(ref["max_abs"]) + worst,
             truth_s,
-            _verdict(truth["pass"] if truth is not None and tol and tol["truth_rms"] else None),
-            "-" if bit is None else (f"{bit['mismatches']} differ " + _verdict(bit["pass"])),
+            verdict if tol is not None else "-",
         )
     c, r = figures["cycles"], figures["rtt_ms"]
     flags = ", ".join(f"{k} x{v}" for k, v in figures["status"].items() if v) or "none"
