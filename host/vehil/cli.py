@@ -283,6 +283,102 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
     return int(known[args.paper].reproduce(console, args.board))
 
 
+def cmd_profile(args: argparse.Namespace) -> int:
+    from vehil import profile, profile_report
+    from vehil.boards import make_board
+
+    bauds = (
+        profile.BAUDS_ALL if args.bauds == "all" else tuple(int(b) for b in args.bauds.split(","))
+    )
+    # simavr paced to the wall clock, so host-clock round trips are the chip's.
+    options = {"realtime": True} if args.board == "simavr" else {}
+    board = make_board(args.board, timeout_s=args.timeout, **options)
+    figures: dict = {"board": args.board, "uart": [vars(profile.uart_setting(b)) for b in bauds]}
+    console.print(profile_report.uart_table(figures["uart"]))
+    with board.session() as link:
+        assert link.info is not None
+        figures["info"] = link.info.fields
+        console.print(
+            f"probe overhead: {link.info.fields['probe_cycles']} cycles, "
+            "measured at boot and subtracted from every step"
+        )
+        if not args.no_sweep:
+            figures["sweep"] = profile.sweep(
+                link,
+                bauds,
+                args.count,
+                progress=lambda b: console.print(f"  swept {b:,} baud", style="dim"),
+            )
+            console.print(profile_report.latency_table(figures["sweep"], args.board))
+            console.print(profile_report.throughput_table(figures["sweep"], args.board))
+            # At 115200 nothing but the UART limits streaming: its share is simavr's bit count.
+            best = max(
+                (
+                    tp["board_line_fraction"]
+                    for p in figures["sweep"]
+                    if p["baud"] == 115200
+                    for tp in p.get("throughput", [])
+                    if "board_line_fraction" in tp
+                ),
+                default=None,
+            )
+            if best and args.board == "simavr":
+                figures["simavr_bits_per_byte"] = 10 / best
+                console.print(
+                    f"simavr (paced to the wall clock) streams at most {best * 100:.1f} % of the "
+                    f"10-bit line rate at 115,200 baud: {10 / best:.2f} bit times per byte (8N1 "
+                    f"is 10; its source counts 11). Multiply its wire times by {best:.3f} for a "
+                    "chip's."
+                )
+        if not args.no_estimators:
+            figures["estimators"] = profile.estimator_costs(link, args.board)
+            console.print(profile_report.estimator_table(figures["estimators"], args.board))
+    if args.board == "qemu":
+        console.print(
+            "[yellow]QEMU ignores the baud rate and times with the host clock: its "
+            "latencies and cycles are not chip figures.[/]"
+        )
+    out = Path(args.out or f"runs/profile-{args.board if args.board.isidentifier() else 'port'}")
+    profile.save(figures, out / "profile.json")
+    for png in profile_report.plots(figures, out):
+        console.print(f"plot {png}")
+    console.print(f"figures {out / 'profile.json'}")
+    if args.compare:
+        import json
+
+        old = json.loads(Path(args.compare).read_text())
+        slower = profile.compare_figures(old, figures)
+        for line in slower:
+            console.print(f"[red]slower:[/] {line}")
+        if not slower:
+            console.print(f"[green]nothing slower than in {args.compare}[/]")
+        return 1 if slower else 0
+    return 0
+
+
+def cmd_bench(args: argparse.Namespace) -> int:
+    from rich.console import Console as RichConsole
+
+    from vehil import runner, scenario
+
+    sc = scenario.load(args.scenario)
+    t = Table(title=f"host-side throughput: {sc.name} through the runner (lockstep)")
+    for col in ("board", "samples", "wall s", "samples/s"):
+        t.add_column(col, justify="right")
+    for name in args.boards.split(","):
+        run = runner.run(sc, name, console=RichConsole(quiet=True), timeout_s=args.timeout)
+        rate = run.done / run.wall_s if run.wall_s else 0
+        t.add_row(
+            name,
+            f"{run.done:,}",
+            f"{run.wall_s:.2f}",
+            f"{rate:,.0f}" if not run.error else f"[red]{run.error}[/]",
+        )
+    t.caption = "native is the host's own ceiling: a board slower than it is the board or its link"
+    console.print(t)
+    return 0
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="vehil", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True)
@@ -335,6 +431,26 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("paper", help="the paper's key, e.g. acc, braking, stlqf")
     p.add_argument("--board", default=None, help="also run the board estimators on this board")
     p.set_defaults(func=cmd_reproduce)
+
+    p = sub.add_parser("profile", help="baud/latency/throughput sweep and estimator costs")
+    _add_board_options(p)
+    p.add_argument(
+        "--bauds",
+        default=",".join(map(str, (115200, 250000, 500000, 1_000_000, 2_000_000))),
+        help="comma-separated, or 'all' (9600 ... 2000000)",
+    )
+    p.add_argument("--count", type=int, default=200, help="exchanges per point at 1 Mbaud")
+    p.add_argument("--no-sweep", action="store_true")
+    p.add_argument("--no-estimators", action="store_true")
+    p.add_argument("--out", default=None, help="folder for profile.json and plots")
+    p.add_argument("--compare", default=None, help="an older profile.json: report what got slower")
+    p.set_defaults(func=cmd_profile)
+
+    p = sub.add_parser("bench", help="samples/s through the runner per board (host side)")
+    p.add_argument("--boards", default="native,simavr,qemu")
+    p.add_argument("--scenario", default="sine")
+    p.add_argument("--timeout", type=float, default=2.0)
+    p.set_defaults(func=cmd_bench)
 
     args = parser.parse_args(argv)
     if getattr(args, "size", None) == -1:

@@ -87,3 +87,14 @@ def test_reboot_request_restarts_the_board_and_it_announces_itself(link) -> None
     assert ready["boot_count"] == before + 1
     assert ready["reset_cause"] == SCHEMA.reset_cause["SOFTWARE"]
     assert link.hello().fields["baud"] == 1_000_000
+
+
+def test_a_profile_sweep_point_measures_without_loss(link) -> None:
+    from vehil.profile import sweep
+
+    (point,) = sweep(link, (250_000,), count=40, sizes=(16,), windows=(1, 8))
+    (lat,) = point["latency"]
+    assert lat["rtt_ms"]["p50"] > 0 and lat["crc_errors"] == lat["overruns"] == 0
+    assert [tp["window"] for tp in point["throughput"]] == [1, 8]
+    assert point["throughput"][1]["frames_s"] > point["throughput"][0]["frames_s"]
+    assert link.info.fields["probe_cycles"] > 0

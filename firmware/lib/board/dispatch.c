@@ -72,6 +72,7 @@ static void send_info(uint8_t seq)
         .boot_count = port_boot_count(),
         .reset_cause = port_reset_cause(),
         .estimators = estimator_count(),
+        .probe_cycles = core.probe_cycles,
     };
     msg_info_pack(&info, core.body);
     send(MSG_INFO, seq, MSG_INFO_FIXED_SIZE);

@@ -139,7 +139,7 @@ static inline void msg_get_estimator_unpack(const uint8_t *body, msg_get_estimat
 }
 
 /* INFO: Board identity; also sent unsolicited (seq 0) once the firmware is ready after a reset. */
-#define MSG_INFO_FIXED_SIZE 27u
+#define MSG_INFO_FIXED_SIZE 29u
 typedef struct {
     uint8_t protocol;
     uint8_t fw_major;
@@ -155,6 +155,7 @@ typedef struct {
     uint16_t boot_count;
     uint8_t reset_cause;
     uint8_t estimators;
+    uint16_t probe_cycles;
 } msg_info_t;
 static inline void msg_info_pack(const msg_info_t *m, uint8_t *body)
 {
@@ -172,6 +173,7 @@ static inline void msg_info_pack(const msg_info_t *m, uint8_t *body)
     put_u16(body + 23, m->boot_count);
     put_u8(body + 25, m->reset_cause);
     put_u8(body + 26, m->estimators);
+    put_u16(body + 27, m->probe_cycles);
 }
 static inline void msg_info_unpack(const uint8_t *body, msg_info_t *m)
 {
@@ -189,6 +191,7 @@ static inline void msg_info_unpack(const uint8_t *body, msg_info_t *m)
     m->boot_count = get_u16(body + 23);
     m->reset_cause = get_u8(body + 25);
     m->estimators = get_u8(body + 26);
+    m->probe_cycles = get_u16(body + 27);
 }
 
 /* PONG: PING's payload echoed, with the board's cycle counter when the PING was handled. */

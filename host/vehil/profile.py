@@ -1,0 +1,259 @@
+"""Where the time of an exchange goes: baud sweeps, windowed throughput, estimator cost.
+
+Figures are labelled by what they measure:
+- chip: cycles counted by the board (simavr is cycle-exact; a real Mega is the chip);
+- wire: bytes x 10 / baud, the UART's floor at 8N1;
+- host clock: round trips as the host sees them, which include the board process
+  (simavr, QEMU) or the USB bridge of a real board.
+simavr times its UART from UBRR but counts 11 bits per 8N1 byte, so its wire times
+read 10 % slow: the sweep measures that ratio and states it. QEMU ignores the
+baud rate altogether. A real Mega adds its 16U2 bridge: up to 4.1 ms per reply.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from vehil import estimators, scenario
+from vehil.errors import VehilError
+from vehil.link import Link
+from vehil.paths import FIRMWARE_ELF
+from vehil.ping import run_ping
+
+BAUDS_ALL = (9600, 19200, 38400, 57600, 115200, 250000, 500000, 1_000_000, 2_000_000)
+BAUDS_DEFAULT = (115200, 250000, 500000, 1_000_000, 2_000_000)
+SIZES = (0, 16, 64, 112)
+WINDOWS = (1, 2, 4, 8, 16, 32)
+F_CPU = 16_000_000
+USB_BRIDGE_S = 4.096e-3  # the 16U2 flushes board->host every 4.096 ms
+
+
+@dataclass(frozen=True)
+class UartSetting:
+    baud: int
+    ubrr: int
+    actual: float
+    error_pct: float
+
+
+def uart_setting(baud: int, f_cpu: int = F_CPU) -> UartSetting:
+    """UBRR with U2X (8 samples per bit), as the firmware sets it."""
+    ubrr = max(0, round(f_cpu / (8 * baud)) - 1)
+    actual = f_cpu / (8 * (ubrr + 1))
+    return UartSetting(baud, ubrr, actual, (actual / baud - 1) * 100)
+
+
+def _pct(x: np.ndarray) -> dict[str, float]:
+    return {f"p{q}": float(np.percentile(x, q)) for q in (50, 95, 99)} | {"max": float(x.max())}
+
+
+def _stats_delta(before: dict[str, Any], after: dict[str, Any]) -> dict[str, int]:
+    return {k: int(after[k] - before[k]) for k in ("crc_errors", "cobs_errors", "overruns")}
+
+
+def latency_point(link: Link, size: int, count: int) -> dict[str, Any]:
+    before = link.stats()
+    try:
+        s = run_ping(link, count=count, size=size, window=1)
+    except VehilError as exc:
+        return {"size": size, "error": str(exc)}
+    wire_s = s.wire_limit_s
+    rtt = _pct(s.rtt_s * 1e3)
+    return {
+        "size": size,
+        "wire_bytes": s.wire_bytes,
+        "wire_ms": wire_s * 1e3,
+        "rtt_ms": rtt,
+        "board_interval_ms": _pct(s.board_interval_s * 1e3) if len(s.board_interval_s) else None,
+        "p99_over_wire": rtt["p99"] / (wire_s * 1e3),
+        **_stats_delta(before, link.stats()),
+        "lost": 0,
+    }
+
+
+def throughput_point(link: Link, window: int, count: int, size: int = 16) -> dict[str, Any]:
+    before = link.stats()
+    start = time.perf_counter()
+    try:
+        s = run_ping(link, count=count, size=size, window=window)
+    except VehilError as exc:
+        return {"window": window, "error": str(exc)}
+    elapsed = time.perf_counter() - start
+    baud = s.baud
+    per_direction = s.wire_bytes / 2 + 2  # the PONG's 4-byte stamp makes replies the longer
+    frames_s = count / elapsed
+    # The board's clock between the first and last PONG: chip time, whatever the host did.
+    board_span = float(s.board_interval_s.sum())
+    board_frames_s = (count - 1) / board_span if board_span > 0 else float("nan")
+    return {
+        "window": window,
+        "frames_s": frames_s,
+        "payload_bytes_s": frames_s * size,
+        "line_fraction": frames_s * per_direction * 10 / baud,
+        "board_frames_s": board_frames_s,
+        "board_line_fraction": board_frames_s * per_direction * 10 / baud,
+        **_stats_delta(before, link.stats()),
+    }
+
+
+def sweep(
+    link: Link,
+    bauds: tuple[int, ...],
+    count: int,
+    sizes: tuple[int, ...] = SIZES,
+    windows: tuple[int, ...] = WINDOWS,
+    progress: Any = None,
+) -> list[dict[str, Any]]:
+    points = []
+    for baud in bauds:
+        setting = uart_setting(baud)
+        entry: dict[str, Any] = {"baud": baud, **vars(setting)}
+        try:
+            link.set_baud(baud)
+        except VehilError as exc:
+            entry["error"] = str(exc)
+            points.append(entry)
+            continue
+        # Fewer exchanges at slow rates: each costs tens of milliseconds there.
+        n = max(20, min(count, int(count * baud / 1_000_000)))
+        entry["latency"] = [latency_point(link, size, n) for size in sizes]
+        entry["throughput"] = [throughput_point(link, w, n * 2) for w in windows]
+        points.append(entry)
+        if progress:
+            progress(baud)
+    link.set_baud(1_000_000)
+    return points
+
+
+def _scenario_for(name: str, mode: str) -> scenario.Scenario | None:
+    import dataclasses
+
+    for path in scenario.shipped():
+        try:
+            sc = scenario.load(path)
+        except VehilError:
+            continue
+        if sc.estimator.name == name:
+            return sc if sc.mode == mode else dataclasses.replace(sc, mode=mode)
+    return None
+
+
+def symbol_sizes(prefix: str, elf: Path = FIRMWARE_ELF) -> dict[str, int]:
+    """Flash and RAM of the image's symbols whose names start with `prefix`."""
+    out = subprocess.run(
+        ["avr-nm", "--size-sort", "-S", str(elf)], capture_output=True, text=True, check=True
+    ).stdout
+    flash = ram = 0
+    for line in out.splitlines():
+        parts = line.split()
+        if len(parts) != 4 or not parts[3].startswith(prefix):
+            continue
+        size, kind = int(parts[1], 16), parts[2].lower()
+        if kind in "tr":
+            flash += size
+        elif kind in "db":
+            ram += size
+            flash += size if kind == "d" else 0  # initialised data is stored in flash too
+    return {"flash": flash, "ram": ram}
+
+
+def estimator_costs(
+    link: Link, board: str, max_samples: int = 2000, elf: Path = FIRMWARE_ELF
+) -> list[dict[str, Any]]:
+    """Cycles per step of every estimator the board has, in each mode, over a scenario."""
+    from vehil import runner
+    from vehil.compare import evaluate, series_from_run
+
+    assert link.info is not None
+    on_board = {e.name: e for e in link.info.estimators}
+    rows = []
+    for name, spec in sorted(estimators.estimators().items()):
+        if name not in on_board:
+            continue
+        for mode in spec.modes:
+            sc = _scenario_for(name, mode)
+            row: dict[str, Any] = {"estimator": name, "mode": mode}
+            if sc is None:
+                row["error"] = "no shipped scenario uses it"
+                rows.append(row)
+                continue
+            import dataclasses
+
+            from rich.console import Console
+
+            sc = dataclasses.replace(sc, duration=min(sc.duration, max_samples * sc.sample_time))
+            run = runner.run(sc, board, console=Console(quiet=True))
+            if run.error:
+                row["error"] = run.error
+                rows.append(row)
+                continue
+            fig = evaluate(series_from_run(run))
+            n_in, n_out = len(spec.inputs), len(spec.outputs)
+            request = 4 * n_in + 6  # type, seq, CRC, COBS overhead and delimiter
+            reply = 4 * n_out + 11  # + status u8 and cycles u32
+            compute_s = fig["cycles"]["max"] / F_CPU
+            rates = {}
+            for baud in BAUDS_DEFAULT:
+                wire = (request + reply) * 10 / baud
+                rates[str(baud)] = {
+                    "stop_and_wait_hz": 1 / (wire + compute_s),
+                    "pipelined_hz": 1 / max(max(request, reply) * 10 / baud, compute_s),
+                    "real_board_hz": 1 / (wire + compute_s + USB_BRIDGE_S),
+                }
+            row.update(
+                scenario=sc.name,
+                samples=run.done,
+                cycles=fig["cycles"],
+                step_us_max=compute_s * 1e6,
+                paper_hz=1 / sc.sample_time,
+                request_bytes=request,
+                reply_bytes=reply,
+                rates=rates,
+                **{f"symbols_{k}": v for k, v in symbol_sizes(f"{name}_", elf).items()},
+            )
+            rows.append(row)
+    return rows
+
+
+def compare_figures(old: dict[str, Any], new: dict[str, Any], slack: float = 0.10) -> list[str]:
+    """What got slower than `slack` (relative) from old to new, one line each."""
+    lines = []
+    old_lat = {
+        (p["baud"], lp["size"]): lp
+        for p in old.get("sweep", [])
+        for lp in p.get("latency", [])
+        if "rtt_ms" in lp
+    }
+    for p in new.get("sweep", []):
+        for lp in p.get("latency", []):
+            before = old_lat.get((p["baud"], lp["size"]))
+            if before and "rtt_ms" in lp:
+                a, b = before["rtt_ms"]["p50"], lp["rtt_ms"]["p50"]
+                if b > a * (1 + slack):
+                    lines.append(
+                        f"round trip p50 at {p['baud']} baud, {lp['size']} B: "
+                        f"{a:.3f} -> {b:.3f} ms ({(b / a - 1) * 100:+.0f} %)"
+                    )
+    old_cyc = {(r["estimator"], r["mode"]): r for r in old.get("estimators", []) if "cycles" in r}
+    for r in new.get("estimators", []):
+        before = old_cyc.get((r["estimator"], r["mode"]))
+        if before and "cycles" in r:
+            a, b = before["cycles"]["median"], r["cycles"]["median"]
+            if a and b > a * (1 + slack):
+                lines.append(
+                    f"{r['estimator']} {r['mode']}: median {a:.0f} -> {b:.0f} cycles "
+                    f"({(b / a - 1) * 100:+.0f} %)"
+                )
+    return lines
+
+
+def save(figures: dict[str, Any], path: Path) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(figures, indent=2, default=str))
