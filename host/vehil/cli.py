@@ -166,7 +166,8 @@ def _finish_run(run, out_dir: Path | None, title: str) -> int:  # noqa: ANN001
     rate = run.done / run.wall_s if run.wall_s else 0.0
     console.print(
         f"{run.done:,} of {len(run.prepared.inputs):,} samples in {run.wall_s:.2f} s "
-        f"({rate:,.0f} samples/s, {'real time' if run.realtime else 'lockstep'}); "
+        f"({rate:,.0f} samples/s, {'real time' if run.realtime else 'lockstep'}"
+        f"{', closed loop' if sc.closed_loop else ''}); "
         f"{run.ended}"
     )
     folder = out_dir or (run.recording.parent if run.recording else None)

@@ -124,54 +124,136 @@ def _progress(console: Console) -> Progress:
     )
 
 
+class _Drive:
+    """An open-loop source: the whole drive and its reference are known before the run."""
+
+    closed = False
+
+    def __init__(self, prepared: Prepared):
+        self.p = prepared
+        self.total = len(prepared.inputs)
+
+    def inputs(self) -> Iterator[np.ndarray]:
+        yield from self.p.inputs
+
+    def after(self, k: int, out: np.ndarray) -> None:
+        """Nothing acts back on a recorded or precomputed drive."""
+
+    def row(self, k: int) -> tuple[float, np.ndarray, np.ndarray, dict[str, float]]:
+        truth = {n: float(v[k]) for n, v in self.p.trace.truth.items()}
+        return float(self.p.trace.t[k]), self.p.inputs[k], self.p.reference[k], truth
+
+    def prepared(self) -> Prepared:
+        return self.p
+
+
+class _Loop:
+    """A closed loop: the plant is stepped with the board's outputs. The float64 reference
+    runs on the same measurements the board got, so their difference is numeric error
+    alone, not two trajectories drifting apart."""
+
+    closed = True
+
+    def __init__(self, scenario: Scenario):
+        self.sc = scenario
+        spec = plants.get(scenario.plant or "")
+        self.plant = spec.start_loop(scenario.plant_params, scenario.sample_time, scenario.seed)
+        self.feedback = spec.feedback
+        self.reference = scenario.estimator.reference(scenario.params)
+        self.total = scenario.samples
+        self.t: list[float] = []
+        self.u: list[np.ndarray] = []
+        self.ref: list[np.ndarray] = []
+        self.truth: list[dict[str, float]] = []
+        self.signals: list[dict[str, float]] = []
+        self.outputs = [s.name for s in scenario.estimator.outputs]
+
+    def inputs(self) -> Iterator[np.ndarray]:
+        spec = self.sc.estimator
+        for k in range(self.total):
+            t, signals, truth = self.plant.measure()
+            u = np.array([signals[self.sc.signals.get(s.name, s.name)] for s in spec.inputs])
+            if not np.all(np.isfinite(u)):
+                raise ScenarioError(f"{self.sc.path}: the plant measured NaN/inf at sample {k}")
+            self.t.append(t)
+            self.u.append(u)
+            self.signals.append(signals)
+            self.truth.append(truth)
+            self.ref.append(np.asarray(self.reference.step(u), dtype=np.float64))
+            yield u
+
+    def after(self, k: int, out: np.ndarray) -> None:
+        self.plant.apply({n: float(out[self.outputs.index(n)]) for n in self.feedback})
+
+    def row(self, k: int) -> tuple[float, np.ndarray, np.ndarray, dict[str, float]]:
+        return self.t[k], self.u[k], self.ref[k], self.truth[k]
+
+    def prepared(self) -> Prepared:
+        n = len(self.ref)
+        names = self.truth[0].keys() if self.truth else ()
+        trace = Trace(
+            t=np.array(self.t[:n]),
+            signals={k: np.array([s[k] for s in self.signals[:n]]) for k in self.signals[0]}
+            if self.signals
+            else {},
+            truth={k: np.array([tr[k] for tr in self.truth[:n]]) for k in names},
+        )
+        m = len(self.outputs)
+        inputs = np.array(self.u[:n]).reshape(n, len(self.sc.estimator.inputs))
+        return Prepared(self.sc, trace, inputs, np.array(self.ref[:n]).reshape(n, m))
+
+
+def _source(scenario: Scenario) -> _Drive | _Loop:
+    return _Loop(scenario) if scenario.closed_loop else _Drive(prepare(scenario))
+
+
 def _stream(
-    link: Link,
-    prepared: Prepared,
-    realtime: bool,
-    window: int | None,
-) -> Iterator[tuple[int, Reply, bool]]:
-    """(k, reply, late) for each sample, in order."""
-    sc = prepared.scenario
+    link: Link, source: _Drive | _Loop, sc: Scenario, realtime: bool, window: int | None
+) -> Iterator[tuple[int, Reply, bool, np.ndarray]]:
+    """(k, reply, late, outputs) for each sample, in order. Lockstep open-loop runs keep
+    the board's window full; real-time and closed-loop runs go one sample at a time."""
     spec, mode = sc.estimator, sc.mode
-    frames = (spec.encode_inputs(u, mode) for u in prepared.inputs)
-    if not realtime:
+    frames = (spec.encode_inputs(u, mode) for u in source.inputs())
+    if not realtime and not source.closed:
         requests = (("SAMPLE", {"inputs": body}) for body in frames)
         for k, reply in enumerate(link.pipeline(requests, window=window)):
-            yield k, reply, False
+            yield k, reply, False, spec.decode_outputs(reply.fields()["outputs"], mode)
         return
     T = sc.sample_time
     start = time.perf_counter()
     for k, body in enumerate(frames):
         due = start + k * T
-        while (wait := due - time.perf_counter()) > 0:
+        while realtime and (wait := due - time.perf_counter()) > 0:
             time.sleep(min(wait, 0.002) if wait > 0.003 else 0)
         reply = link.request("SAMPLE", inputs=body)
-        yield k, reply, reply.sent_at + reply.rtt_s > due + T
+        out = spec.decode_outputs(reply.fields()["outputs"], mode)
+        source.after(k, out)
+        yield k, reply, realtime and reply.sent_at + reply.rtt_s > due + T, out
 
 
 def _on_link(
     link: Link,
-    prepared: Prepared,
+    source: _Drive | _Loop,
+    sc: Scenario,
     *,
     realtime: bool = False,
     window: int | None = None,
     on_sample: Callable[[int, Reply, bool, np.ndarray], None] | None = None,
 ) -> None:
-    sc = prepared.scenario
     spec = sc.estimator
     link.configure(spec.name, sc.mode, spec.encode_params(sc.params, sc.mode))
-    for k, reply, late in _stream(link, prepared, realtime, window):
-        out = spec.decode_outputs(reply.fields()["outputs"], sc.mode)
+    for k, reply, late, out in _stream(link, source, sc, realtime, window):
         if on_sample is not None:
             on_sample(k, reply, late, out)
 
 
-def native_outputs(prepared: Prepared) -> np.ndarray:
-    """The same scenario through the native build: the bits a FIXED board must match."""
+def native_outputs(scenario: Scenario) -> np.ndarray:
+    """The same scenario through the native build: the bits a FIXED board must match.
+    A closed loop is deterministic too, so it is rerun whole."""
     outs: list[np.ndarray] = []
     with open_board("native") as link:
-        _on_link(link, prepared, on_sample=lambda k, r, late, out: outs.append(out))
-    return np.array(outs).reshape(len(outs), len(prepared.output_names))
+        _on_link(link, _source(scenario), scenario, on_sample=lambda k, r, late, o: outs.append(o))
+    return np.array(outs).reshape(len(outs), len(scenario.estimator.outputs))
 
 
 def default_recording_path(scenario: Scenario, board: str, root: Path = Path("runs")) -> Path:
@@ -180,8 +262,8 @@ def default_recording_path(scenario: Scenario, board: str, root: Path = Path("ru
     return root / f"{scenario.name}-{board_tag}-{scenario.mode.lower()}-{stamp}" / "run.arrow"
 
 
-def _header(prepared: Prepared, board: str, realtime: bool, info: BoardInfo) -> dict[str, Any]:
-    sc, spec = prepared.scenario, prepared.scenario.estimator
+def _header(sc: Scenario, board: str, realtime: bool, info: BoardInfo) -> dict[str, Any]:
+    spec = sc.estimator
 
     def signals(sigs: tuple) -> list[dict[str, Any]]:
         return [{"name": s.name, "unit": s.unit, "q": s.q} for s in sigs]
@@ -194,6 +276,7 @@ def _header(prepared: Prepared, board: str, realtime: bool, info: BoardInfo) -> 
             "params": sc.params,
             "mode": sc.mode,
             "sample_time": sc.sample_time,
+            "closed_loop": sc.closed_loop,
         },
         "estimator": {
             "name": spec.name,
@@ -221,17 +304,21 @@ def run(
     """Runs a scenario on a board and records it. Never raises for a run that started:
     the returned Run says how it ended, and the recording holds what was done."""
     console = console or Console(stderr=True)
-    prepared = prepare(scenario)
+    source = _source(scenario)
     spec = scenario.estimator
     n_out = len(spec.outputs)
+    target = board if isinstance(board, Board) else make_board(board, timeout_s=timeout_s)
+    board_name = board if isinstance(board, str) else target.name
     needs_native = scenario.mode == "FIXED" and any(
         t.bit_exact for t in scenario.tolerances.values()
     )
-    target = board if isinstance(board, Board) else make_board(board, timeout_s=timeout_s)
-    board_name = board if isinstance(board, str) else target.name
-    native = native_outputs(prepared) if needs_native and board_name != "native" else None
-    truth = prepared.truth()
-    names = prepared.output_names
+    native = native_outputs(scenario) if needs_native and board_name != "native" else None
+    names = [s.name for s in spec.outputs]
+    if source.closed:
+        plant_truth = {s.name for s in plants.get(scenario.plant or "").truth}
+        truth_names = [n for n in names if n in plant_truth]
+    else:
+        truth_names = list(source.prepared().truth())
     outs: list[np.ndarray] = []
     status: list[int] = []
     cycles: list[int] = []
@@ -246,12 +333,12 @@ def run(
             assert link.info is not None
             info = link.info.fields
             path = recording or default_recording_path(scenario, board_name)
-            schema = record.columns([s.name for s in spec.inputs], names, list(truth))
-            header = _header(prepared, board_name, realtime, link.info)
+            schema = record.columns([s.name for s in spec.inputs], names, truth_names)
+            header = _header(scenario, board_name, realtime, link.info)
             recorder = record.Recorder(path, schema, header)
             with _progress(console) as progress:
                 task = progress.add_task(
-                    f"{scenario.name} on {board_name}", total=len(prepared.inputs), err=""
+                    f"{scenario.name} on {board_name}", total=source.total, err=""
                 )
 
                 def on_sample(k: int, reply: Reply, is_late: bool, out: np.ndarray) -> None:
@@ -261,28 +348,31 @@ def run(
                     cycles.append(f["cycles"])
                     rtt.append(reply.rtt_s)
                     late.append(is_late)
+                    t, u, ref, truth = source.row(k)
                     row: dict[str, Any] = {
                         "k": k,
-                        "t": float(prepared.trace.t[k]),
+                        "t": t,
                         "status": f["status"],
                         "cycles": f["cycles"],
                         "rtt_s": reply.rtt_s,
                         "late": is_late,
                     }
                     for j, s in enumerate(spec.inputs):
-                        row[f"in.{s.name}"] = float(prepared.inputs[k, j])
+                        row[f"in.{s.name}"] = float(u[j])
                     for j, n in enumerate(names):
-                        row[f"ref.{n}"] = float(prepared.reference[k, j])
+                        row[f"ref.{n}"] = float(ref[j])
                         row[f"board.{n}"] = float(out[j])
                         if n in truth:
-                            row[f"truth.{n}"] = float(truth[n][k])
+                            row[f"truth.{n}"] = truth[n]
                     assert recorder is not None
                     recorder.append(row)
-                    if k % 64 == 0 or k == len(prepared.inputs) - 1:
-                        err = np.max(np.abs(out - prepared.reference[k])) if n_out else 0.0
+                    if k % 64 == 0 or k == source.total - 1:
+                        err = np.max(np.abs(out - ref)) if n_out else 0.0
                         progress.update(task, completed=k + 1, err=f"|board-ref| {err:.3g}")
 
-                _on_link(link, prepared, realtime=realtime, window=window, on_sample=on_sample)
+                _on_link(
+                    link, source, scenario, realtime=realtime, window=window, on_sample=on_sample
+                )
     except KeyboardInterrupt:
         ended, error = "interrupted", f"stopped by Ctrl-C after {len(outs)} samples"
     except VehilError as exc:
@@ -291,6 +381,7 @@ def run(
         wall = time.perf_counter() - started
         if recorder is not None:
             recorder.close({"ended": ended, "error": error, "wall_s": wall})
+    prepared = source.prepared()
     return Run(
         prepared=prepared,
         board=board_name,

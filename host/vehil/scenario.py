@@ -59,6 +59,7 @@ class Scenario:
     plant: str | None = None
     plant_params: dict[str, float] = field(default_factory=dict)
     log: LogSource | None = None
+    closed_loop: bool = False  # the plant applies the board's outputs each sample
     signals: dict[str, str] = field(default_factory=dict)  # estimator input -> source signal
     tolerances: dict[str, Tolerance] = field(default_factory=dict)
     paper: str = ""
@@ -132,7 +133,7 @@ def parse(data: dict[str, Any], where: str, path: Path | None = None) -> Scenari
     top = _Checker(where, data, "")
     top.only("scenario", "plant", "log", "estimator", "signals", "tolerance")
     sc = top.sub("scenario")
-    sc.only("name", "title", "duration", "sample_time", "seed", "paper", "figures")
+    sc.only("name", "title", "duration", "sample_time", "seed", "paper", "figures", "closed_loop")
     sample_time = sc.number("sample_time", lo=1e-5, hi=10.0)
     est_t = top.sub("estimator")
     est_t.only("name", "mode", "params")
@@ -168,7 +169,24 @@ def parse(data: dict[str, Any], where: str, path: Path | None = None) -> Scenari
         except ValueError as exc:
             raise rest.fail("", str(exc)) from None
         duration = sc.number("duration", lo=sample_time, hi=86_400.0)
+        closed_loop = sc.table.get("closed_loop", False)
+        if not isinstance(closed_loop, bool):
+            raise sc.fail("closed_loop", f"must be true or false, got {closed_loop!r}")
+        plant_spec = known_plants[plant_name]
+        if closed_loop:
+            if plant_spec.loop is None:
+                raise sc.fail("closed_loop", f"plant {plant_name} runs open loop only")
+            missing = [f for f in plant_spec.feedback if f not in outputs]
+            if missing:
+                raise sc.fail(
+                    "closed_loop",
+                    f"plant {plant_name} needs {', '.join(missing)} from the estimator, "
+                    f"which gives {', '.join(outputs)}",
+                )
     else:
+        if sc.table.get("closed_loop"):
+            raise sc.fail("closed_loop", "a recorded drive cannot close a loop")
+        closed_loop = False
         lg = top.sub("log")
         lg.only("path", "format", "time", "columns", "truth")
         base = path.parent if path else Path.cwd()
@@ -215,6 +233,7 @@ def parse(data: dict[str, Any], where: str, path: Path | None = None) -> Scenari
         plant=plant_name,
         plant_params=plant_params,
         log=log,
+        closed_loop=closed_loop,
         signals=signals,
         tolerances=tolerances,
         paper=sc.text("paper", ""),

@@ -59,3 +59,16 @@ def test_a_tolerance_too_tight_fails_and_names_the_worst_sample(run_scenario) ->
     assert not result.passed
     ref = result.figures["outputs"]["y"]["reference"]
     assert ref["outside_tolerance"] > 0 and ref["worst_k"] is not None
+
+
+def test_a_loop_that_gets_wrong_feedback_drifts_off(run_scenario) -> None:  # noqa: ANN001
+    from vehil import plants
+
+    good = run_scenario("sine-loop", board="native", duration=1.0)
+    good.assert_passed()
+    loop = plants.get("noisy_sine").start_loop({"tau": 0.05}, 0.002, 2)
+    for _ in range(500):  # the same loop fed a stuck output instead of the board's echo
+        loop.measure()
+        loop.apply({"y": 0.0})
+    _, _, truth = loop.measure()
+    assert abs(truth["y"]) > 1.0  # it ran away: feedback is what kept the run on track

@@ -55,6 +55,7 @@ def test_a_good_scenario_loads_with_defaults_filled_in() -> None:
         ),
         (lambda d: d.update(log={"path": "a.csv"}), r"give exactly one of \[plant\] and \[log\]"),
         (lambda d: d.update(extra={}), r"extra: unknown key; allowed here: scenario, plant"),
+        (lambda d: d["scenario"].update(closed_loop="yes"), r"closed_loop: must be true or false"),
     ],
 )
 def test_mistakes_are_named(change, message) -> None:  # noqa: ANN001

@@ -1,4 +1,9 @@
-"""A noisy sine: the smallest plant that exercises run, record, replay and report."""
+"""A noisy sine: the smallest plant that exercises run, record, replay and report.
+
+Closed loop, the sine is the set point of a first-order lag whose feedback is the
+board's output `y`: x' = (A sin(wt) + offset - y) / tau. Through passthrough the
+loop tracks the sine; a board that returned anything else would steer it off.
+"""
 
 from __future__ import annotations
 
@@ -18,6 +23,26 @@ def _simulate(p: Mapping[str, float], duration: float, T: float, seed: int) -> T
     return Trace(t=t, signals={"y": clean + noise}, truth={"y": clean})
 
 
+class _Loop:
+    def __init__(self, p: Mapping[str, float], T: float, seed: int):
+        self.p, self.T = p, T
+        self.k = 0
+        self.x = p["offset"]
+        self.rng = np.random.default_rng(seed)
+
+    def _setpoint(self) -> float:
+        return self.p["amplitude"] * np.sin(2 * np.pi * self.p["frequency"] * self.k * self.T)
+
+    def measure(self) -> tuple[float, dict[str, float], dict[str, float]]:
+        y = self.x + self.rng.normal(0.0, self.p["noise_std"])
+        return self.k * self.T, {"y": y}, {"y": self.x}
+
+    def apply(self, outputs: Mapping[str, float]) -> None:
+        target = self._setpoint() + self.p["offset"]
+        self.x += self.T / self.p["tau"] * (target - outputs["y"])
+        self.k += 1
+
+
 SPEC = register(
     PlantSpec(
         name="noisy_sine",
@@ -27,9 +52,12 @@ SPEC = register(
             Param("frequency", "Hz", default=0.5, lo=0.0, hi=1e3),
             Param("offset", "1", default=0.0, lo=-1e3, hi=1e3),
             Param("noise_std", "1", default=0.05, lo=0.0, hi=1e3),
+            Param("tau", "s", default=0.1, lo=1e-3, hi=1e3, doc="closed loop: lag time constant"),
         ),
         signals=(Signal("y", "1", doc="measured: sine plus noise"),),
         truth=(Signal("y", "1", doc="the sine without noise"),),
         simulate=_simulate,
+        loop=_Loop,
+        feedback=("y",),
     )
 )
