@@ -68,12 +68,7 @@ void port_avr_init(void)
 uint32_t port_cycles(void) { return cycles_now(); }
 uint32_t port_cycles_per_second(void) { return F_CPU; }
 
-void port_write(const uint8_t *data, uint16_t len)
-{
-    for (uint16_t i = 0; i < len; i++) {
-        uart_write(data[i]);
-    }
-}
+void port_write(const uint8_t *data, uint16_t len) { uart_write(data, len); }
 
 void port_flush(void) { uart_flush(); }
 uint16_t port_rx_buffer(void) { return UART_RX_SIZE - 1u; }

@@ -72,18 +72,26 @@ int16_t uart_read(void)
     return byte;
 }
 
-void uart_write(uint8_t byte)
+void uart_write(const uint8_t *data, uint16_t len)
 {
-    uint8_t next = (uint8_t)(tx_head + 1u);
-    while (next == tx_tail) {
-        /* full: the UDRE interrupt drains it */
-    }
-    tx_buf[tx_head] = byte;
-    ATOMIC_BLOCK(ATOMIC_RESTORESTATE)
-    {
-        tx_head = next;
-        UCSR0A |= _BV(TXC0); /* writing 1 clears it: it now means "this byte is out" */
-        UCSR0B |= _BV(UDRIE0);
+    /* Copy as much as fits, then publish it with one atomic update: a reply costs
+     * one interrupt-masked section, not one per byte. */
+    while (len > 0u) {
+        uint8_t head = tx_head;
+        while ((uint8_t)(head + 1u) == tx_tail) {
+            /* full: the UDRE interrupt drains it */
+        }
+        while (len > 0u && (uint8_t)(head + 1u) != tx_tail) {
+            tx_buf[head] = *data++;
+            head = (uint8_t)(head + 1u);
+            len--;
+        }
+        ATOMIC_BLOCK(ATOMIC_RESTORESTATE)
+        {
+            tx_head = head;
+            UCSR0A |= _BV(TXC0); /* writing 1 clears it: it now means "these bytes are out" */
+            UCSR0B |= _BV(UDRIE0);
+        }
     }
 }
 

@@ -11,8 +11,8 @@
 void uart_init(uint32_t baud);
 /* Next received byte, or -1 if none is waiting. */
 int16_t uart_read(void);
-/* Queues a byte; waits while the TX ring is full. */
-void uart_write(uint8_t byte);
+/* Queues bytes; waits while the TX ring is full. */
+void uart_write(const uint8_t *data, uint16_t len);
 /* Waits until the last queued byte has been shifted out. */
 void uart_flush(void);
 uint32_t uart_baud(void);

@@ -54,8 +54,14 @@ def _pct(x: np.ndarray) -> dict[str, float]:
     return {f"p{q}": float(np.percentile(x, q)) for q in (50, 95, 99)} | {"max": float(x.max())}
 
 
-def _stats_delta(before: dict[str, Any], after: dict[str, Any]) -> dict[str, int]:
-    return {k: int(after[k] - before[k]) for k in ("crc_errors", "cobs_errors", "overruns")}
+def _stats_delta(before: dict[str, Any], after: dict[str, Any]) -> dict[str, Any]:
+    delta: dict[str, Any] = {
+        k: int(after[k] - before[k]) for k in ("crc_errors", "cobs_errors", "overruns")
+    }
+    # Board cycles per frame from decode to reply queued (the STATS request itself included).
+    frames = after["rx_frames"] - before["rx_frames"]
+    delta["frame_cycles"] = (after["frame_cycles"] - before["frame_cycles"]) / max(1, frames)
+    return delta
 
 
 def latency_point(link: Link, size: int, count: int) -> dict[str, Any]:

@@ -24,7 +24,10 @@ def uart_table(points: list[dict[str, Any]]) -> Table:
 
 
 def latency_table(points: list[dict[str, Any]], board: str) -> Table:
-    t = Table(title=f"{board}: stop-and-wait PING round trips (host clock, ms)")
+    t = Table(
+        title=f"{board}: stop-and-wait PING round trips (host clock, ms); handling: board time "
+        "from a frame's end to its reply queued (µs at 16 MHz)"
+    )
     for col in (
         "baud",
         "payload B",
@@ -35,6 +38,7 @@ def latency_table(points: list[dict[str, Any]], board: str) -> Table:
         "max",
         "p99/wire",
         "board p50",
+        "handling µs",
         "CRC/COBS/overrun",
     ):
         t.add_column(col, justify="right")
@@ -58,6 +62,7 @@ def latency_table(points: list[dict[str, Any]], board: str) -> Table:
                 f"{r['max']:.3f}",
                 f"{lp['p99_over_wire']:.2f}",
                 f"{b['p50']:.3f}" if b else "-",
+                f"{lp['frame_cycles'] / 16:.0f}",
                 f"{lp['crc_errors']}/{lp['cobs_errors']}/{lp['overruns']}",
             )
     return t

@@ -280,6 +280,7 @@ static void end_of_frame(void)
     if (core.rx_len == 0) {
         return; /* back-to-back delimiters: an idle line, not a frame */
     }
+    uint32_t start = port_cycles();
     frame_t f;
     frame_status_t st = frame_decode(core.rx, core.rx_len, &f);
     core.rx_len = 0;
@@ -291,6 +292,7 @@ static void end_of_frame(void)
         core.stats.rx_frames++;
         handle(&f);
     }
+    core.stats.frame_cycles += port_cycles() - start;
     uint16_t overruns = port_rx_overruns();
     if (overruns != core.overruns_reported) {
         send_error(UNSOLICITED_SEQ, 0, ERR_OVERRUN, (uint16_t)(overruns - core.overruns_reported));

@@ -240,7 +240,7 @@ static inline void msg_result_unpack(const uint8_t *body, msg_result_t *m)
 }
 
 /* STATS: Link and board health counters since boot. */
-#define MSG_STATS_FIXED_SIZE 26u
+#define MSG_STATS_FIXED_SIZE 30u
 typedef struct {
     uint32_t rx_frames;
     uint32_t tx_frames;
@@ -252,6 +252,7 @@ typedef struct {
     uint16_t stack_size;
     uint16_t stack_unused;
     uint32_t timestamp;
+    uint32_t frame_cycles;
 } msg_stats_t;
 static inline void msg_stats_pack(const msg_stats_t *m, uint8_t *body)
 {
@@ -265,6 +266,7 @@ static inline void msg_stats_pack(const msg_stats_t *m, uint8_t *body)
     put_u16(body + 18, m->stack_size);
     put_u16(body + 20, m->stack_unused);
     put_u32(body + 22, m->timestamp);
+    put_u32(body + 26, m->frame_cycles);
 }
 static inline void msg_stats_unpack(const uint8_t *body, msg_stats_t *m)
 {
@@ -278,6 +280,7 @@ static inline void msg_stats_unpack(const uint8_t *body, msg_stats_t *m)
     m->stack_size = get_u16(body + 18);
     m->stack_unused = get_u16(body + 20);
     m->timestamp = get_u32(body + 22);
+    m->frame_cycles = get_u32(body + 26);
 }
 
 /* ESTIMATOR: One registry entry. Counts are of 4-byte values; 0 inputs means any length (passthrough). */
