@@ -3,40 +3,25 @@ nothing outside names a particular estimator."""
 
 from __future__ import annotations
 
-import importlib
-import pkgutil
-
 from vehil.estimators.base import EstimatorSpec, Param, Reference, Signal
+from vehil.registry import Registry
 
-_REGISTRY: dict[str, EstimatorSpec] = {}
+_REGISTRY: Registry[EstimatorSpec] = Registry(__name__, "estimator")
 
 
 def register(spec: EstimatorSpec) -> EstimatorSpec:
-    if spec.name in _REGISTRY:
-        raise ValueError(f"estimator {spec.name!r} registered twice")
-    if any(s.c_id == spec.c_id for s in _REGISTRY.values()):
-        raise ValueError(f"estimator {spec.name!r}: C id {spec.c_id} is taken")
-    _REGISTRY[spec.name] = spec
-    return spec
-
-
-def _discover() -> None:
-    for mod in pkgutil.iter_modules(__path__):
-        if mod.name != "base" and not mod.name.startswith("_"):
-            importlib.import_module(f"{__name__}.{mod.name}")
+    taken = [s.name for s in _REGISTRY._items.values() if s.c_id == spec.c_id]
+    if taken:
+        raise ValueError(f"estimator {spec.name!r}: C id {spec.c_id} is taken by {taken[0]}")
+    return _REGISTRY.add(spec.name, spec)
 
 
 def estimators() -> dict[str, EstimatorSpec]:
-    if not _REGISTRY:
-        _discover()
-    return dict(_REGISTRY)
+    return _REGISTRY.all()
 
 
 def get(name: str) -> EstimatorSpec:
-    known = estimators()
-    if name not in known:
-        raise KeyError(f"no estimator {name!r}; known: {', '.join(sorted(known))}")
-    return known[name]
+    return _REGISTRY.get(name)
 
 
 __all__ = ["EstimatorSpec", "Param", "Reference", "Signal", "estimators", "get", "register"]

@@ -54,6 +54,23 @@ class Param(Signal):
         return None
 
 
+def resolve_params(
+    owner: str, params: Sequence[Param], given: Mapping[str, float]
+) -> dict[str, float]:
+    """Defaults overridden by `given`; raises ValueError naming each unknown or bad one."""
+    known = {p.name: p for p in params}
+    unknown = sorted(set(given) - set(known))
+    if unknown:
+        raise ValueError(
+            f"{owner} has no parameter {', '.join(unknown)} (it has: {', '.join(known) or 'none'})"
+        )
+    values = {p.name: float(given.get(p.name, p.default)) for p in params}
+    problems = [m for p in params if (m := p.check(values[p.name]))]
+    if problems:
+        raise ValueError("; ".join(problems))
+    return values
+
+
 class Reference(Protocol):
     """The float64 reference: the same step the board runs, in double precision."""
 
@@ -97,18 +114,7 @@ class EstimatorSpec:
 
     def param_values(self, given: Mapping[str, float]) -> dict[str, float]:
         """Defaults overridden by `given`; raises ValueError naming each bad one."""
-        known = {p.name: p for p in self.params}
-        unknown = sorted(set(given) - set(known))
-        if unknown:
-            raise ValueError(
-                f"{self.name} has no parameter {', '.join(unknown)} "
-                f"(it has: {', '.join(known) or 'none'})"
-            )
-        values = {p.name: float(given.get(p.name, p.default)) for p in self.params}
-        problems = [m for p in self.params if (m := p.check(values[p.name]))]
-        if problems:
-            raise ValueError("; ".join(problems))
-        return values
+        return resolve_params(self.name, self.params, given)
 
     def encode_params(self, values: Mapping[str, float], mode: str) -> bytes:
         return encode_values([values[p.name] for p in self.params], self.params, mode)

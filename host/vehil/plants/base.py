@@ -18,7 +18,7 @@ from typing import Protocol
 
 import numpy as np
 
-from vehil.estimators.base import Param, Signal
+from vehil.estimators.base import Param, Signal, resolve_params
 
 
 @dataclass
@@ -59,18 +59,7 @@ class PlantSpec:
     feedback: tuple[str, ...] = ()  # estimator outputs the loop plant acts on
 
     def param_values(self, given: Mapping[str, float]) -> dict[str, float]:
-        known = {p.name: p for p in self.params}
-        unknown = sorted(set(given) - set(known))
-        if unknown:
-            raise ValueError(
-                f"plant {self.name} has no parameter {', '.join(unknown)} "
-                f"(it has: {', '.join(known) or 'none'})"
-            )
-        values = {p.name: float(given.get(p.name, p.default)) for p in self.params}
-        problems = [m for p in self.params if (m := p.check(values[p.name]))]
-        if problems:
-            raise ValueError("; ".join(problems))
-        return values
+        return resolve_params(f"plant {self.name}", self.params, given)
 
     def start_loop(self, params: Mapping[str, float], T: float, seed: int) -> LoopPlant:
         if self.loop is None:
