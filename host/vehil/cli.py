@@ -453,6 +453,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--timeout", type=float, default=2.0)
     p.set_defaults(func=cmd_bench)
 
+    from vehil import papers
+
+    for module in papers.papers().values():
+        if hasattr(module, "add_commands"):
+            module.add_commands(sub, console)
+
     args = parser.parse_args(argv)
     if getattr(args, "size", None) == -1:
         args.size = None

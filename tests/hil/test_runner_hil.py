@@ -89,3 +89,19 @@ def test_ctrl_c_stops_a_run_cleanly_and_keeps_what_was_recorded(tmp_path, built)
     rec = record.read(out / "run.arrow")
     assert rec.end["ended"] == "interrupted" and 0 < len(rec) < 10_000
     assert (out / "report.md").exists()
+
+
+@pytest.mark.parametrize(
+    ("name", "board", "duration"),
+    [
+        ("mixed", "simavr", 30.0),
+        ("mixed-fixed", "simavr", 30.0),
+        ("hard-braking", "qemu", 6.0),
+        ("mixed-fixed", "qemu", 30.0),
+    ],
+)
+def test_the_acc_filter_on_the_chip_matches_its_reference(
+    run_scenario, name, board, duration
+) -> None:  # noqa: ANN001, E501
+    result = run_scenario(name, board=board, duration=duration)
+    result.assert_passed()

@@ -25,7 +25,21 @@ def test_info_describes_the_board_and_its_estimators(link) -> None:
     assert info.fields["protocol"] == SCHEMA.protocol_version
     assert info.fields["max_body"] == SCHEMA.max_body
     assert info.reset_cause == "POWER_ON"
-    assert [e.name for e in info.estimators] == ["passthrough"]
+    assert info.estimators[0].name == "passthrough"
+
+
+def test_the_board_has_every_estimator_the_host_knows_with_the_same_shape(link) -> None:
+    from vehil import estimators
+
+    on_board = {e.name: e for e in link.info.estimators}
+    for name, spec in estimators.estimators().items():
+        assert name in on_board, f"{name} has a host spec but is not built into the firmware"
+        e = on_board[name]
+        assert e.id == spec.c_id
+        if name != "passthrough":  # it takes any length
+            shape = (e.n_inputs, e.n_outputs, e.n_params)
+            assert shape == (len(spec.inputs), len(spec.outputs), len(spec.params)), name
+        assert set(spec.modes) <= set(e.modes)
 
 
 def test_hello_with_another_protocol_version_is_refused_naming_the_boards(link) -> None:

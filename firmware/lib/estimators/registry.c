@@ -2,15 +2,18 @@
  * its state to the union and its descriptor to the table. */
 #include <stddef.h>
 
+#include "estimators/acc_kf.h"
 #include "estimators/estimator.h"
 #include "estimators/passthrough.h"
 
 static union {
     passthrough_state_t passthrough;
+    acc_kf_state_t acc_kf;
 } state;
 
 static const estimator_t *const registry[] = {
     &passthrough_estimator,
+    &acc_kf_estimator,
 };
 
 uint8_t estimator_count(void) { return (uint8_t)(sizeof registry / sizeof registry[0]); }

@@ -1,0 +1,271 @@
+#include "estimators/acc_kf.h"
+
+#include <math.h>
+
+#include "estimators/params.h"
+#include "fixmath/fixmath.h"
+#include "proto/wire.h"
+
+enum { P_T, P_RW, P_QV, P_QB, P_R, P_P0V, P_P0B, P_RBAR, P_C1, P_C2, P_VG, P_B0, N_PARAMS = P_B0 + 5 };
+
+static const param_range_t ranges[N_PARAMS] = {
+    {1e-4f, 0.1f, 30}, {0.1f, 1.0f, 24},  {0.0f, 1.0f, 30},  {0.0f, 1.0f, 30},
+    {1e-6f, 100.0f, 24}, {0.0f, 7.9f, 24}, {0.0f, 1.0f, 30}, {-1.0f, 1.0f, 30},
+    {0.0f, 1.0f, 0},   {0.0f, 1.0f, 0},   {0.0f, 10.0f, 16}, {-2.0f, 2.0f, 29},
+    {-2.0f, 2.0f, 29}, {-2.0f, 2.0f, 29}, {-2.0f, 2.0f, 29}, {-2.0f, 2.0f, 29},
+};
+
+/* Slip clamp: beyond it the wheels carry no speed information. */
+#define ACC_KF_S_MAX 0.9f
+#define ACC_KF_S_MAX_Q30 INT32_C(966367642) /* 0.9 in Q30 */
+#define ONE_Q30 (INT32_C(1) << 30)
+
+/* -- float32 ------------------------------------------------------------- */
+
+static void reset_f32(acc_kf_params_f32_t *p, acc_kf_f32_t *s)
+{
+    *s = (acc_kf_f32_t){.p11 = p->p0_v, .p22 = p->p0_b};
+}
+
+static float lpf_f32(const acc_kf_params_f32_t *p, acc_kf_f32_t *s, float a_m)
+{
+    /* Eq. 4b, 2nd order. */
+    float a_f = p->b[0] * a_m + p->b[1] * s->am[0] + p->b[2] * s->am[1] + p->c[0] * s->af[0] +
+                p->c[1] * s->af[1];
+    s->am[1] = s->am[0];
+    s->am[0] = a_m;
+    s->af[1] = s->af[0];
+    s->af[0] = a_f;
+    return a_f;
+}
+
+static uint8_t step_f32(acc_kf_state_t *st, const uint8_t *in, uint8_t *out)
+{
+    const acc_kf_params_f32_t *p = &st->u.f32.p;
+    acc_kf_f32_t *s = &st->u.f32.s;
+    float a_m = get_f32(in), w_l = get_f32(in + 4), w_r = get_f32(in + 8);
+    uint8_t braking = get_f32(in + 12) > 0.5f;
+    uint8_t status = 0;
+    if (!isfinite(a_m) || !isfinite(w_l) || !isfinite(w_r)) {
+        status = STATUS_NOT_FINITE; /* the state is left as it was */
+    } else {
+        float v_m = p->r_w_half * (w_l + w_r); /* eq. 3 */
+        if (!st->started) {
+            /* x̂(0) = [v_m(0), 0]; the LPF starts in steady state at a_m(0). */
+            st->started = 1;
+            s->v = v_m;
+            s->a0 = 0.0f;
+            s->u_prev = a_m;
+            s->am[0] = s->am[1] = s->af[0] = s->af[1] = a_m;
+        } else {
+            float T = p->T;
+            float w2 = st->corr1 ? s->w2_prev : 0.0f;
+            float v_pred = s->v + T * (s->u_prev - s->a0);
+            float b_pred = s->a0 + w2;
+            float m11 = s->p11 - 2.0f * T * s->p12 + T * T * s->p22 + p->q_v;
+            float m12 = s->p12 - T * s->p22;
+            float m22 = s->p22 + p->q_b;
+            float c = (braking && st->corr2) ? 1.0f - s->slip : 1.0f; /* eq. 8 */
+            float cm11 = c * m11, cm12 = c * m12;
+            float inv_s = 1.0f / (c * cm11 + p->R);
+            float k1 = cm11 * inv_s, k2 = cm12 * inv_s;
+            float e = v_m - c * v_pred;
+            s->v = v_pred + k1 * e;
+            s->a0 = b_pred + k2 * e;
+            s->p11 = m11 - k1 * cm11;
+            s->p12 = m12 - k1 * cm12;
+            s->p22 = m22 - k2 * cm12;
+            float a_f = lpf_f32(p, s, a_m);
+            s->w2_prev = p->rbar * (a_f - s->af[1]); /* eq. 6 */
+            if (braking && s->v > p->v_guard) {
+                float slip = 1.0f - v_m / s->v; /* eq. 7, for the next step */
+                if (slip < 0.0f || slip > ACC_KF_S_MAX) {
+                    status |= STATUS_CLAMPED;
+                    slip = slip < 0.0f ? 0.0f : ACC_KF_S_MAX;
+                }
+                s->slip = slip;
+            } else {
+                s->slip = 0.0f;
+            }
+            s->u_prev = a_m;
+            if (!isfinite(s->v) || !isfinite(s->p11)) {
+                status |= STATUS_NOT_FINITE;
+            }
+        }
+    }
+    put_f32(out, s->v);
+    put_f32(out + 4, s->a0);
+    return status;
+}
+
+/* -- fixed point --------------------------------------------------------- */
+
+static void reset_q(acc_kf_params_q_t *p, acc_kf_q_t *s)
+{
+    *s = (acc_kf_q_t){.p11 = p->p0_v, .p22 = p->p0_b};
+}
+
+static int32_t lpf_q(const acc_kf_params_q_t *p, acc_kf_q_t *s, int32_t a_m, uint8_t *st)
+{
+    /* Eq. 4b: Q29 coefficients times Q24 samples, summed in 64 bits, rounded once. */
+    int64_t acc = (int64_t)p->b[0] * a_m + (int64_t)p->b[1] * s->am[0] +
+                  (int64_t)p->b[2] * s->am[1] + (int64_t)p->c[0] * s->af[0] +
+                  (int64_t)p->c[1] * s->af[1];
+    int32_t a_f = fx_sat(fx_round_shift(acc, 29), st);
+    s->am[1] = s->am[0];
+    s->am[0] = a_m;
+    s->af[1] = s->af[0];
+    s->af[0] = a_f;
+    return a_f;
+}
+
+static uint8_t step_q(acc_kf_state_t *st, const uint8_t *in, uint8_t *out)
+{
+    const acc_kf_params_q_t *p = &st->u.q.p;
+    acc_kf_q_t *s = &st->u.q.s;
+    int32_t a_m = get_i32(in);                         /* Q24 */
+    int64_t w_sum = (int64_t)get_i32(in + 4) + get_i32(in + 8); /* Q16 */
+    uint8_t braking = get_i32(in + 12) != 0;
+    uint8_t status = 0;
+    int32_t v_m = fx_sat(fx_round_shift(w_sum * p->r_w_half, 20), &status); /* Q20, eq. 3 */
+    if (!st->started) {
+        st->started = 1;
+        s->v = v_m;
+        s->a0 = 0;
+        s->u_prev = a_m;
+        s->am[0] = s->am[1] = s->af[0] = s->af[1] = a_m;
+    } else {
+        int32_t T = p->T;
+        int32_t w2 = st->corr1 ? s->w2_prev : 0;
+        /* v⁻ = v + T (u - a0): Q30 · Q24 -> Q20 */
+        int32_t v_pred =
+            fx_add(s->v, fx_mul(T, 30, fx_sub(s->u_prev, s->a0, &status), 24, 20, &status), &status);
+        int32_t b_pred = fx_add(s->a0, w2, &status);
+        /* M = A P Aᵀ + Q (P11, P12 Q28; P22 Q30) */
+        int32_t t_p12 = fx_mul(T, 30, s->p12, 28, 28, &status);
+        int32_t t_p22 = fx_mul(T, 30, s->p22, 30, 28, &status);
+        int32_t m11 = fx_add(fx_sub(s->p11, fx_add(t_p12, t_p12, &status), &status),
+                             fx_add(fx_mul(T, 30, t_p22, 28, 28, &status), p->q_v, &status),
+                             &status);
+        int32_t m12 = fx_sub(s->p12, t_p22, &status);
+        int32_t m22 = fx_add(s->p22, p->q_b, &status);
+        int32_t c = (braking && st->corr2) ? fx_sub(ONE_Q30, s->slip, &status) : ONE_Q30;
+        int32_t cm11 = fx_mul(c, 30, m11, 28, 28, &status);
+        int32_t cm12 = fx_mul(c, 30, m12, 28, 28, &status);
+        int32_t S = fx_add(fx_mul(c, 30, cm11, 28, 24, &status), p->R, &status); /* Q24 */
+        int32_t k1 = fx_div(cm11, 28, S, 24, 30, &status); /* Q30 */
+        int32_t k2 = fx_div(cm12, 28, S, 24, 30, &status); /* Q30, 1/s */
+        int32_t e = fx_sub(v_m, fx_mul(c, 30, v_pred, 20, 20, &status), &status); /* Q20 */
+        s->v = fx_add(v_pred, fx_mul(k1, 30, e, 20, 20, &status), &status);
+        s->a0 = fx_add(b_pred, fx_mul(k2, 30, e, 20, 24, &status), &status);
+        s->p11 = fx_sub(m11, fx_mul(k1, 30, cm11, 28, 28, &status), &status);
+        s->p12 = fx_sub(m12, fx_mul(k1, 30, cm12, 28, 28, &status), &status);
+        s->p22 = fx_sub(m22, fx_mul(k2, 30, cm12, 28, 30, &status), &status);
+        int32_t a_f = lpf_q(p, s, a_m, &status);
+        s->w2_prev = fx_mul(p->rbar, 30, fx_sub(a_f, s->af[1], &status), 24, 24, &status);
+        if (braking && s->v > p->v_guard) {
+            int32_t slip = fx_sub(ONE_Q30, fx_div(v_m, 20, s->v, 20, 30, &status), &status);
+            int32_t s_max = ACC_KF_S_MAX_Q30;
+            if (slip < 0 || slip > s_max) {
+                status |= STATUS_CLAMPED;
+                slip = slip < 0 ? 0 : s_max;
+            }
+            s->slip = slip;
+        } else {
+            s->slip = 0;
+        }
+        s->u_prev = a_m;
+    }
+    put_i32(out, fx_rescale(s->v, 20, 16, &status));
+    put_i32(out + 4, s->a0);
+    return status;
+}
+
+/* -- the estimator interface --------------------------------------------- */
+
+static uint8_t acc_kf_configure(void *state, uint8_t mode, const uint8_t *params)
+{
+    acc_kf_state_t *st = state;
+    uint8_t bad = params_check(params, mode, ranges, N_PARAMS);
+    if (bad != 0) {
+        return bad;
+    }
+    st->mode = mode;
+    st->corr1 = param_value(params, P_C1, mode, 0) >= 0.5f;
+    st->corr2 = param_value(params, P_C2, mode, 0) >= 0.5f;
+    if (mode == MODE_F32) {
+        acc_kf_params_f32_t *p = &st->u.f32.p;
+        p->T = get_f32(params + 4u * P_T);
+        p->r_w_half = 0.5f * get_f32(params + 4u * P_RW);
+        p->q_v = get_f32(params + 4u * P_QV);
+        p->q_b = get_f32(params + 4u * P_QB);
+        p->R = get_f32(params + 4u * P_R);
+        p->p0_v = get_f32(params + 4u * P_P0V);
+        p->p0_b = get_f32(params + 4u * P_P0B);
+        p->rbar = get_f32(params + 4u * P_RBAR);
+        p->v_guard = get_f32(params + 4u * P_VG);
+        for (uint8_t i = 0; i < 3u; i++) {
+            p->b[i] = get_f32(params + 4u * (P_B0 + i));
+        }
+        for (uint8_t i = 0; i < 2u; i++) {
+            p->c[i] = get_f32(params + 4u * (P_B0 + 3u + i));
+        }
+    } else {
+        acc_kf_params_q_t *p = &st->u.q.p;
+        uint8_t sat = 0;
+        p->T = param_q(params, P_T);
+        p->r_w_half = param_q(params, P_RW) / 2; /* Q24; the radius is positive */
+        p->q_v = fx_rescale(param_q(params, P_QV), 30, 28, &sat);
+        p->q_b = param_q(params, P_QB);
+        p->R = param_q(params, P_R);
+        p->p0_v = fx_rescale(param_q(params, P_P0V), 24, 28, &sat);
+        p->p0_b = param_q(params, P_P0B);
+        p->rbar = param_q(params, P_RBAR);
+        p->v_guard = fx_rescale(param_q(params, P_VG), 16, 20, &sat);
+        for (uint8_t i = 0; i < 3u; i++) {
+            p->b[i] = param_q(params, (uint8_t)(P_B0 + i));
+        }
+        for (uint8_t i = 0; i < 2u; i++) {
+            p->c[i] = param_q(params, (uint8_t)(P_B0 + 3u + i));
+        }
+    }
+    st->started = 0;
+    if (mode == MODE_F32) {
+        reset_f32(&st->u.f32.p, &st->u.f32.s);
+    } else {
+        reset_q(&st->u.q.p, &st->u.q.s);
+    }
+    return 0;
+}
+
+static void acc_kf_reset(void *state)
+{
+    acc_kf_state_t *st = state;
+    st->started = 0;
+    if (st->mode == MODE_F32) {
+        reset_f32(&st->u.f32.p, &st->u.f32.s);
+    } else {
+        reset_q(&st->u.q.p, &st->u.q.s);
+    }
+}
+
+static uint8_t acc_kf_step(void *state, const uint8_t *in, uint8_t in_len, uint8_t *out,
+                           uint8_t *out_len)
+{
+    acc_kf_state_t *st = state;
+    (void)in_len; /* the dispatcher checked it against n_inputs */
+    *out_len = 8;
+    return st->mode == MODE_F32 ? step_f32(st, in, out) : step_q(st, in, out);
+}
+
+const estimator_t acc_kf_estimator = {
+    .id = ACC_KF_ID,
+    .name = "acc_kf",
+    .modes = (1u << MODE_F32) | (1u << MODE_FIXED),
+    .n_inputs = 4,
+    .n_outputs = 2,
+    .n_params = N_PARAMS,
+    .configure = acc_kf_configure,
+    .reset = acc_kf_reset,
+    .step = acc_kf_step,
+};

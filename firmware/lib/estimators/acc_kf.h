@@ -1,0 +1,73 @@
+/* ACC reference-speed Kalman filter (seed 004, CN101655504A; note §1.7):
+ * state [v_r, a_0], input a_m, measurement the mean non-driven wheel speed,
+ * correction 1 (bias noise mean r̄·Δa_f) and correction 2 (C = [1 - s(k-1), 0]
+ * while braking), each switchable. One filter in float32 (acc_kf_step_f32) and
+ * in int32 fixed point (acc_kf_step_q), same shapes, same order.
+ *
+ * Inputs  a_m [m/s²] Q24, ω_l, ω_r [rad/s] Q16, brake [0/1] Q0.
+ * Outputs v̂_r [m/s] Q16, â_0 [m/s²] Q24.
+ * Params  T Q30, r_w Q24, q_v Q30, q_b Q30, R Q24, p0_v Q24, p0_b Q30, r̄ Q30,
+ *         corr1 Q0, corr2 Q0, v_guard Q16, b0 b1 b2 c1 c2 Q29 (LPF, eq. 4b). */
+#ifndef VEHIL_ESTIMATORS_ACC_KF_H
+#define VEHIL_ESTIMATORS_ACC_KF_H
+
+#include <stdint.h>
+
+#include "estimators/estimator.h"
+
+#define ACC_KF_ID 10u
+
+typedef struct {
+    float T, r_w_half, q_v, q_b, R, p0_v, p0_b, rbar, v_guard;
+    float b[3], c[2];
+} acc_kf_params_f32_t;
+
+typedef struct {
+    float v, a0;          /* x̂ */
+    float p11, p12, p22;  /* P, symmetric */
+    float u_prev, w2_prev, slip;
+    float am[2], af[2];   /* a_m(k-1), a_m(k-2); a_f(k-1), a_f(k-2) */
+} acc_kf_f32_t;
+
+/* Fixed point: the Q format of each member is in its comment. */
+typedef struct {
+    int32_t T;            /* Q30 */
+    int32_t r_w_half;     /* Q24 */
+    int32_t q_v;          /* Q28 */
+    int32_t q_b;          /* Q30 */
+    int32_t R;            /* Q24 */
+    int32_t p0_v;         /* Q28 */
+    int32_t p0_b;         /* Q30 */
+    int32_t rbar;         /* Q30 */
+    int32_t v_guard;      /* Q20 */
+    int32_t b[3], c[2];   /* Q29 */
+} acc_kf_params_q_t;
+
+typedef struct {
+    int32_t v;            /* Q20 */
+    int32_t a0;           /* Q24 */
+    int32_t p11, p12;     /* Q28 */
+    int32_t p22;          /* Q30 */
+    int32_t u_prev;       /* Q24 */
+    int32_t w2_prev;      /* Q24 */
+    int32_t slip;         /* Q30 */
+    int32_t am[2], af[2]; /* Q24 */
+} acc_kf_q_t;
+
+typedef struct {
+    uint8_t mode, corr1, corr2, started;
+    union {
+        struct {
+            acc_kf_params_f32_t p;
+            acc_kf_f32_t s;
+        } f32;
+        struct {
+            acc_kf_params_q_t p;
+            acc_kf_q_t s;
+        } q;
+    } u;
+} acc_kf_state_t;
+
+extern const estimator_t acc_kf_estimator;
+
+#endif

@@ -1,0 +1,22 @@
+/* Reading and range-checking CONFIG parameters in either numeric mode, so each
+ * estimator states its table once instead of parsing bytes. */
+#ifndef VEHIL_ESTIMATORS_PARAMS_H
+#define VEHIL_ESTIMATORS_PARAMS_H
+
+#include <stdint.h>
+
+typedef struct {
+    float lo, hi; /* accepted range, inclusive */
+    uint8_t q;    /* fractional bits of the value in FIXED mode */
+} param_range_t;
+
+/* Parameter i as a float, whatever the mode (for checks, not for fixed-point maths). */
+float param_value(const uint8_t *params, uint8_t i, uint8_t mode, uint8_t q);
+
+/* Parameter i as it came: an int32 Q value in FIXED mode. */
+int32_t param_q(const uint8_t *params, uint8_t i);
+
+/* 0 if every parameter is finite and in range, else 1 + the first bad index. */
+uint8_t params_check(const uint8_t *params, uint8_t mode, const param_range_t *ranges, uint8_t n);
+
+#endif

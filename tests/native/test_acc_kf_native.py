@@ -1,0 +1,50 @@
+"""The ACC filter's C (float32 and fixed point) against its float64 reference."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from vehil import scenario
+from vehil.boards import open_board
+from vehil.errors import BoardError
+from vehil.estimators import acc_kf
+
+
+@pytest.mark.parametrize(("name", "limit"), [("mixed", 5e-5), ("mixed-fixed", 1e-4)])
+def test_c_follows_the_reference(run_scenario, name, limit) -> None:  # noqa: ANN001
+    result = run_scenario(name, board="native", duration=30.0)
+    result.assert_passed()
+    assert result.figures["outputs"]["v"]["reference"]["max_abs"] < limit
+
+
+def test_an_out_of_range_parameter_is_refused_with_its_index(built) -> None:  # noqa: ANN001
+    values = acc_kf.spec_defaults() | {"R": 0.0}  # the reference would divide by zero too
+    spec = acc_kf.SPEC
+    with open_board("native") as link, pytest.raises(BoardError, match="BAD_PARAM") as exc:
+        link.configure("acc_kf", "F32", spec.encode_params(values, "F32"))
+    assert exc.value.detail == [p.name for p in spec.params].index("R")
+
+
+def test_a_nan_input_is_flagged_and_leaves_the_state_alone(built) -> None:  # noqa: ANN001
+    spec = acc_kf.SPEC
+    good = [0.1, 60.0, 60.0, 0.0]
+    with open_board("native") as link:
+        link.configure("acc_kf", "F32", spec.encode_params(acc_kf.spec_defaults(), "F32"))
+        frames = [good, good, [float("nan"), 60.0, 60.0, 0.0], good]
+        replies = list(
+            link.pipeline(("SAMPLE", {"inputs": spec.encode_inputs(u, "F32")}) for u in frames)
+        )
+    flags = [r.fields()["status"] for r in replies]
+    assert flags[2] & 0x02 and not flags[1] & 0x02
+    out = [spec.decode_outputs(r.fields()["outputs"], "F32") for r in replies]
+    np.testing.assert_array_equal(out[2], out[1])
+    assert np.all(np.isfinite(out[3]))
+
+
+def test_the_four_variants_run_on_the_board_as_on_the_host(run_scenario) -> None:  # noqa: ANN001
+    sc = scenario.load("mixed")
+    for corr1, corr2 in ((0, 0), (1, 0), (0, 1)):
+        params = sc.params | {"corr1": float(corr1), "corr2": float(corr2)}
+        result = run_scenario(dataclasses.replace(sc, params=params), board="native", duration=20.0)
+        assert result.figures["outputs"]["v"]["reference"]["max_abs"] < 1e-4
