@@ -98,10 +98,11 @@ def test_ctrl_c_stops_a_run_cleanly_and_keeps_what_was_recorded(tmp_path, built)
         ("mixed-fixed", "simavr", 30.0),
         ("hard-braking", "qemu", 6.0),
         ("mixed-fixed", "qemu", 30.0),
+        ("manf-hard-stop", "simavr", 4.0),
+        ("manf-hard-stop-fixed", "simavr", 4.0),
+        ("manf-abs-snow", "qemu", 6.0),
     ],
 )
-def test_the_acc_filter_on_the_chip_matches_its_reference(
-    run_scenario, name, board, duration
-) -> None:  # noqa: ANN001, E501
+def test_estimators_on_the_chip_match_their_references(run_scenario, name, board, duration) -> None:  # noqa: ANN001, E501
     result = run_scenario(name, board=board, duration=duration)
     result.assert_passed()

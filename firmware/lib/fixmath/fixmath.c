@@ -88,3 +88,31 @@ int32_t fx_sqrt(int32_t a, uint8_t q, uint8_t *status)
     }
     return fx_sat((int64_t)root, status);
 }
+
+/* tanh(k / 16) in Q15, k = 0..64. */
+static const uint16_t tanh_table[65] = {
+    0,     2045,  4075,  6073,  8025,  9919,  11743, 13486, 15143, 16706, 18173, 19542, 20813,
+    21986, 23066, 24054, 24956, 25776, 26519, 27191, 27797, 28341, 28830, 29268, 29660, 30010,
+    30322, 30600, 30847, 31067, 31262, 31435, 31589, 31726, 31846, 31953, 32048, 32132, 32206,
+    32271, 32329, 32381, 32426, 32466, 32501, 32532, 32560, 32584, 32606, 32625, 32642, 32657,
+    32670, 32681, 32691, 32700, 32708, 32715, 32721, 32727, 32732, 32736, 32740, 32743, 32746,
+};
+
+int32_t fx_tanh(int32_t x, uint8_t qx, uint8_t q_out)
+{
+    uint32_t mag = x < 0 ? (uint32_t)0 - (uint32_t)x : (uint32_t)x;
+    uint8_t frac_bits = (uint8_t)(qx - 4u); /* the table's step is 1/16 */
+    uint32_t idx = mag >> frac_bits;
+    int32_t y;
+    if (idx >= 64u) {
+        y = tanh_table[64];
+    } else {
+        uint32_t frac = mag & (((uint32_t)1 << frac_bits) - 1u);
+        /* Interpolate with 15 fractional bits of the position, so the product fits. */
+        frac = frac_bits > 15u ? frac >> (frac_bits - 15u) : frac << (15u - frac_bits);
+        int32_t lo = tanh_table[idx], hi = tanh_table[idx + 1u];
+        y = lo + (int32_t)(((uint32_t)(hi - lo) * frac + (1u << 14)) >> 15);
+    }
+    y = (int32_t)((uint32_t)y << (q_out - 15u));
+    return x < 0 ? -y : y;
+}

@@ -1,0 +1,174 @@
+#include "estimators/manf.h"
+
+#include <math.h>
+
+#include "estimators/params.h"
+#include "fixmath/fixmath.h"
+#include "proto/wire.h"
+
+enum { P_T, P_RW, P_WHEEL, P_GAMMA, P_XI, P_RG0, P_A, P_SIGN, P_READING, N_PARAMS };
+
+static const param_range_t ranges[N_PARAMS] = {
+    {1e-4f, 0.1f, 30},  {0.1f, 1.0f, 24}, {0.0f, 2.0f, 0}, {1.0f, 1.9f, 30}, {0.0f, 1.0f, 30},
+    {0.0f, 100.0f, 24}, {0.1f, 100.0f, 24}, {0.0f, 1.0f, 0}, {0.0f, 1.0f, 0},
+};
+
+/* The wheel the filter follows: front, rear, or the faster one (the less braked). */
+static float wheel_f32(uint8_t wheel, float w_f, float w_r)
+{
+    return wheel == 0u ? w_f : wheel == 1u ? w_r : (w_f > w_r ? w_f : w_r);
+}
+
+static int32_t wheel_q(uint8_t wheel, int32_t w_f, int32_t w_r)
+{
+    return wheel == 0u ? w_f : wheel == 1u ? w_r : (w_f > w_r ? w_f : w_r);
+}
+
+/* Eqs. 39-42: the gain follows the error's sign pattern. Returns the new sign memory. */
+static int8_t adapt_sign(int8_t s_prev, int8_t s, uint8_t *grow)
+{
+    *grow = (s_prev != 0 && s != 0) ? (s == s_prev ? 2u : 1u) : 0u; /* 2 grow, 1 shrink, 0 keep */
+    return s != 0 ? s : s_prev;
+}
+
+static uint8_t step_f32(manf_state_t *st, const uint8_t *in, uint8_t *out)
+{
+    const manf_params_f32_t *p = &st->u.f32.p;
+    manf_f32_t *s = &st->u.f32.s;
+    float w = wheel_f32(st->wheel, get_f32(in), get_f32(in + 4));
+    uint8_t status = 0;
+    if (!isfinite(w)) {
+        status = STATUS_NOT_FINITE;
+    } else if (!st->started) {
+        st->started = 1;
+        s->v = p->r_w * w; /* v̂(0) = R ω(0) */
+    } else {
+        float e = s->v - p->r_w * w;
+        uint8_t grow;
+        st->s_prev = adapt_sign(st->s_prev, (int8_t)((e > 0.0f) - (e < 0.0f)), &grow);
+        if (grow == 2u) {
+            s->rg *= p->gamma;
+        } else if (grow == 1u) {
+            s->rg *= p->xi;
+        }
+        s->rg = s->rg < 0.0f ? 0.0f : (s->rg > p->a ? p->a : s->rg);
+        float step = s->rg * tanhf(e);
+        if (!st->reading) {
+            step *= p->T; /* reading B: R_g is an acceleration */
+        }
+        float dv = st->printed_sign ? step : -step;
+        float limit = p->a * p->T; /* eq. 43 */
+        if (dv > limit || dv < -limit) {
+            dv = dv > 0.0f ? limit : -limit;
+            status |= STATUS_CLAMPED;
+        }
+        s->v += dv;
+    }
+    put_f32(out, s->v);
+    put_f32(out + 4, s->rg);
+    return status;
+}
+
+static uint8_t step_q(manf_state_t *st, const uint8_t *in, uint8_t *out)
+{
+    const manf_params_q_t *p = &st->u.q.p;
+    manf_q_t *s = &st->u.q.s;
+    int32_t w = wheel_q(st->wheel, get_i32(in), get_i32(in + 4)); /* Q16 */
+    uint8_t status = 0;
+    int32_t v_w = fx_mul(p->r_w, 24, w, 16, 24, &status); /* Q24 */
+    if (!st->started) {
+        st->started = 1;
+        s->v = v_w;
+    } else {
+        int32_t e = fx_sub(s->v, v_w, &status); /* Q24 */
+        uint8_t grow;
+        st->s_prev = adapt_sign(st->s_prev, (int8_t)((e > 0) - (e < 0)), &grow);
+        if (grow == 2u) {
+            s->rg = fx_mul(s->rg, 24, p->gamma, 30, 24, &status);
+        } else if (grow == 1u) {
+            s->rg = fx_mul(s->rg, 24, p->xi, 30, 24, &status);
+        }
+        s->rg = s->rg < 0 ? 0 : (s->rg > p->a ? p->a : s->rg);
+        int32_t step = fx_mul(s->rg, 24, fx_tanh(e, 24, 30), 30, 24, &status);
+        if (!st->reading) {
+            step = fx_mul(step, 24, p->T, 30, 24, &status);
+        }
+        int32_t dv = st->printed_sign ? step : -step;
+        int32_t limit = fx_mul(p->a, 24, p->T, 30, 24, &status);
+        if (dv > limit || dv < -limit) {
+            dv = dv > 0 ? limit : -limit;
+            status |= STATUS_CLAMPED;
+        }
+        s->v = fx_add(s->v, dv, &status);
+    }
+    put_i32(out, fx_rescale(s->v, 24, 16, &status));
+    put_i32(out + 4, s->rg);
+    return status;
+}
+
+static void manf_reset(void *state)
+{
+    manf_state_t *st = state;
+    st->started = 0;
+    st->s_prev = 0;
+    if (st->mode == MODE_F32) {
+        st->u.f32.s = (manf_f32_t){.rg = st->u.f32.p.rg0};
+    } else {
+        st->u.q.s = (manf_q_t){.rg = st->u.q.p.rg0};
+    }
+}
+
+static uint8_t manf_configure(void *state, uint8_t mode, const uint8_t *params)
+{
+    manf_state_t *st = state;
+    uint8_t bad = params_check(params, mode, ranges, N_PARAMS);
+    if (bad != 0) {
+        return bad;
+    }
+    st->mode = mode;
+    st->wheel = (uint8_t)param_value(params, P_WHEEL, mode, 0);
+    st->printed_sign = param_value(params, P_SIGN, mode, 0) >= 0.5f;
+    st->reading = param_value(params, P_READING, mode, 0) >= 0.5f;
+    if (mode == MODE_F32) {
+        st->u.f32.p = (manf_params_f32_t){
+            .T = get_f32(params + 4u * P_T),
+            .r_w = get_f32(params + 4u * P_RW),
+            .gamma = get_f32(params + 4u * P_GAMMA),
+            .xi = get_f32(params + 4u * P_XI),
+            .rg0 = get_f32(params + 4u * P_RG0),
+            .a = get_f32(params + 4u * P_A),
+        };
+    } else {
+        st->u.q.p = (manf_params_q_t){
+            .T = param_q(params, P_T),
+            .r_w = param_q(params, P_RW),
+            .gamma = param_q(params, P_GAMMA),
+            .xi = param_q(params, P_XI),
+            .rg0 = param_q(params, P_RG0),
+            .a = param_q(params, P_A),
+        };
+    }
+    manf_reset(st);
+    return 0;
+}
+
+static uint8_t manf_step(void *state, const uint8_t *in, uint8_t in_len, uint8_t *out,
+                         uint8_t *out_len)
+{
+    manf_state_t *st = state;
+    (void)in_len;
+    *out_len = 8;
+    return st->mode == MODE_F32 ? step_f32(st, in, out) : step_q(st, in, out);
+}
+
+const estimator_t manf_estimator = {
+    .id = MANF_ID,
+    .name = "manf",
+    .modes = (1u << MODE_F32) | (1u << MODE_FIXED),
+    .n_inputs = 2,
+    .n_outputs = 2,
+    .n_params = N_PARAMS,
+    .configure = manf_configure,
+    .reset = manf_reset,
+    .step = manf_step,
+};

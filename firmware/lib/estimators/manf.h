@@ -1,0 +1,57 @@
+/* MANF (seed 000, note §3.5): vehicle speed during braking from wheel speed alone.
+ * v̂ -= T R_g tanh(v̂ - R ω) (corrected sign, reading B; switches for the printed
+ * sign and reading A), R_g ×γ on a kept error sign, ×ξ on a flip, in [0, a];
+ * |Δv̂| <= a T. float32 (manf_step_f32) and fixed point (manf_step_q).
+ *
+ * Inputs  ω_f, ω_r [rad/s] Q16.   Outputs v̂ [m/s] Q16, R_g [m/s²] Q24.
+ * Params  T Q30, r_w Q24, wheel Q0, γ Q30, ξ Q30, R_g(0) Q24, a Q24, printed_sign Q0,
+ *         reading Q0. Fixed point: tanh from fx_tanh, |error| <= 7e-4. */
+#ifndef VEHIL_ESTIMATORS_MANF_H
+#define VEHIL_ESTIMATORS_MANF_H
+
+#include <stdint.h>
+
+#include "estimators/estimator.h"
+
+#define MANF_ID 20u
+
+typedef struct {
+    float T, r_w, gamma, xi, rg0, a;
+} manf_params_f32_t;
+
+typedef struct {
+    float v, rg;
+} manf_f32_t;
+
+typedef struct {
+    int32_t T;      /* Q30 */
+    int32_t r_w;    /* Q24 */
+    int32_t gamma;  /* Q30 */
+    int32_t xi;     /* Q30 */
+    int32_t rg0;    /* Q24 */
+    int32_t a;      /* Q24 */
+} manf_params_q_t;
+
+typedef struct {
+    int32_t v;      /* Q24 */
+    int32_t rg;     /* Q24 */
+} manf_q_t;
+
+typedef struct {
+    uint8_t mode, wheel, printed_sign, reading, started;
+    int8_t s_prev; /* sign of the last non-zero error */
+    union {
+        struct {
+            manf_params_f32_t p;
+            manf_f32_t s;
+        } f32;
+        struct {
+            manf_params_q_t p;
+            manf_q_t s;
+        } q;
+    } u;
+} manf_state_t;
+
+extern const estimator_t manf_estimator;
+
+#endif

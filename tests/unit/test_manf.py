@@ -1,0 +1,70 @@
+"""Seed 000's MANF and the braking plant: the corrected law tracks, the printed one runs away."""
+
+import numpy as np
+import pytest
+
+from vehil import plants
+from vehil.estimators import manf
+
+INPUTS = ("omega_f", "omega_r")
+
+
+def drive(**params: float):  # noqa: ANN201
+    trace = plants.get("braking").run(params, 4.0, 0.001, 1)
+    return trace, np.column_stack([trace.signals[n] for n in INPUTS])
+
+
+def run_manf(u: np.ndarray, **overrides: float) -> np.ndarray:
+    params = manf.SPEC.param_values(overrides)
+    f = manf.Manf(params)
+    return np.array([f.step(x) for x in u])
+
+
+def test_abs_braking_holds_the_slip_near_the_band_and_slows_the_car() -> None:
+    trace, _ = drive(profile=2, torque=4000)
+    v, w_f, w_r = trace.truth["v"], trace.truth["omega_f_true"], trace.truth["omega_r_true"]
+    assert v[0] == pytest.approx(25.0) and v[-1] < 5.0
+    braking = (trace.t > 0.6) & (v > 3)
+    slip_f = (v - 0.27 * w_f)[braking] / v[braking]
+    slip_r = (v - 0.27 * w_r)[braking] / v[braking]
+    worst = np.maximum(slip_f, slip_r)
+    assert 0.05 < np.median(worst) < 0.35  # the ABS cycles in 0.08-0.3, neither wheel locks
+    assert worst.max() < 0.7  # overshoot past 0.3 while the torque winds down, no lock-up
+
+
+def test_the_corrected_law_tracks_and_the_printed_sign_runs_away() -> None:
+    trace, u = drive(profile=2, torque=3000)
+    good = run_manf(u)[:, 0]
+    bad = run_manf(u, printed_sign=1)[:, 0]
+    v = trace.truth["v"]
+    assert np.sqrt(np.mean((good - v) ** 2)) < 1.0
+    assert bad[-1] > v[0]  # positive feedback: the estimate climbs while the car stops
+
+
+def test_the_gain_stays_within_the_tolerable_acceleration() -> None:
+    _, u = drive(profile=0)
+    rg = run_manf(u)[:, 1]
+    assert rg.max() <= 8.0 and rg.min() >= 0.0
+    assert np.argmax(rg >= 7.99) >= 200  # ln 8 / ln 1.01 ≈ 209 steps to reach the ceiling
+
+
+def test_manf_lags_in_a_hard_stop_more_than_with_abs() -> None:
+    hard_trace, hard_u = drive(profile=0, torque=4000)
+    abs_trace, abs_u = drive(profile=2, torque=3000)
+    hard = np.sqrt(np.mean((run_manf(hard_u)[:, 0] - hard_trace.truth["v"]) ** 2))
+    soft = np.sqrt(np.mean((run_manf(abs_u)[:, 0] - abs_trace.truth["v"]) ** 2))
+    assert hard > soft
+
+
+def test_the_pulse_chain_recovers_the_wheel_speed() -> None:
+    trace = plants.get("braking").run({"sensor": 1, "profile": 2, "torque": 3000}, 3.0, 0.001, 4)
+    err = trace.signals["omega_f"] - trace.truth["omega_f_true"]
+    assert np.sqrt(np.mean(err**2)) < 3.0  # rad/s: per-pulse frequency at 10 kHz sampling
+    assert abs(trace.signals["omega_f"][0] - trace.truth["omega_f_true"][0]) < 3.0
+
+
+def test_the_original_anf_reaches_the_wheel_speed_at_its_fixed_rate() -> None:
+    trace, u = drive(profile=2, torque=3000)
+    anf = manf.Anf({"T": 0.001, "r_w": 0.27, "wheel": 0, "rg_fixed": 8.0})
+    v = np.array([anf.step(x)[0] for x in u])
+    assert np.all(np.abs(np.diff(v)) <= 8.0 * 0.001 + 1e-12)
