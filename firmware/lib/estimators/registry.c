@@ -6,17 +6,20 @@
 #include "estimators/estimator.h"
 #include "estimators/manf.h"
 #include "estimators/passthrough.h"
+#include "estimators/uiiekf.h"
 
 static union {
     passthrough_state_t passthrough;
     acc_kf_state_t acc_kf;
     manf_state_t manf;
+    uiiekf_state_t uiiekf;
 } state;
 
 static const estimator_t *const registry[] = {
     &passthrough_estimator,
     &acc_kf_estimator,
     &manf_estimator,
+    &uiiekf_estimator,
 };
 
 uint8_t estimator_count(void) { return (uint8_t)(sizeof registry / sizeof registry[0]); }
