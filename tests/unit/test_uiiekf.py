@@ -15,7 +15,7 @@ def drive(T: float = 0.005, **params: float):  # noqa: ANN201
 @pytest.mark.parametrize("n_states", [5, 3])
 def test_the_unknown_input_is_decoupled_and_the_error_dynamics_are_stable(n_states) -> None:  # noqa: ANN001
     trace, u = drive()
-    f = uiiekf.Uiiekf(uiiekf.SPEC.param_values({"n_states": n_states}))
+    f = uiiekf.Uiiekf(uiiekf.SPEC.param_values({"n_states": n_states, "T": 0.005}))
     v = np.array([f.step(x)[0] for x in u])
     assert max(f.c1_norm) < 1e-12  # condition C1: (I - L C) B = 0
     radius = np.array([np.max(np.abs(e)) for e in f.eigenvalues])
@@ -28,7 +28,7 @@ def test_the_unknown_input_is_decoupled_and_the_error_dynamics_are_stable(n_stat
 
 def test_uiiekf_is_more_accurate_than_manf_as_table_4_says() -> None:
     trace, u = drive()
-    ui = uiiekf.Uiiekf(uiiekf.SPEC.param_values({}))
+    ui = uiiekf.Uiiekf(uiiekf.SPEC.param_values({"T": 0.005}))
     mf = manf.Manf(manf.SPEC.param_values({"T": 0.005}))
     v_ui = np.array([ui.step(x)[0] for x in u])
     v_mf = np.array([mf.step(x)[0] for x in u])
@@ -39,8 +39,8 @@ def test_uiiekf_is_more_accurate_than_manf_as_table_4_says() -> None:
 
 def test_the_printed_iteration_shrinks_p_faster_than_one_pass() -> None:
     _, u = drive()
-    printed = uiiekf.Uiiekf(uiiekf.SPEC.param_values({"iterations": 5}))
-    once = uiiekf.Uiiekf(uiiekf.SPEC.param_values({"form": 1}))
+    printed = uiiekf.Uiiekf(uiiekf.SPEC.param_values({"iterations": 5, "T": 0.005}))
+    once = uiiekf.Uiiekf(uiiekf.SPEC.param_values({"form": 1, "T": 0.005}))
     for x in u[:50]:
         printed.step(x)
         once.step(x)
