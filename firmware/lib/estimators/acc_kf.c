@@ -183,6 +183,17 @@ static uint8_t step_q(acc_kf_state_t *st, const uint8_t *in, uint8_t *out)
 
 /* -- the estimator interface --------------------------------------------- */
 
+static void acc_kf_reset(void *state)
+{
+    acc_kf_state_t *st = state;
+    st->started = 0;
+    if (st->mode == MODE_F32) {
+        reset_f32(&st->u.f32.p, &st->u.f32.s);
+    } else {
+        reset_q(&st->u.q.p, &st->u.q.s);
+    }
+}
+
 static uint8_t acc_kf_configure(void *state, uint8_t mode, const uint8_t *params)
 {
     acc_kf_state_t *st = state;
@@ -229,24 +240,8 @@ static uint8_t acc_kf_configure(void *state, uint8_t mode, const uint8_t *params
             p->c[i] = param_q(params, (uint8_t)(P_B0 + 3u + i));
         }
     }
-    st->started = 0;
-    if (mode == MODE_F32) {
-        reset_f32(&st->u.f32.p, &st->u.f32.s);
-    } else {
-        reset_q(&st->u.q.p, &st->u.q.s);
-    }
+    acc_kf_reset(st);
     return 0;
-}
-
-static void acc_kf_reset(void *state)
-{
-    acc_kf_state_t *st = state;
-    st->started = 0;
-    if (st->mode == MODE_F32) {
-        reset_f32(&st->u.f32.p, &st->u.f32.s);
-    } else {
-        reset_q(&st->u.q.p, &st->u.q.s);
-    }
 }
 
 static uint8_t acc_kf_step(void *state, const uint8_t *in, uint8_t in_len, uint8_t *out,

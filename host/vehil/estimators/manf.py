@@ -20,6 +20,12 @@ from vehil.estimators.base import EstimatorSpec, Param, Signal
 
 R_W = 0.27  # Table 2
 
+# What both seed-000 estimators take: the two wheel speeds and nothing else.
+WHEEL_SPEEDS = (
+    Signal("omega_f", "rad/s", q=16, doc="front wheel speed"),
+    Signal("omega_r", "rad/s", q=16, doc="rear wheel speed"),
+)
+
 
 def _wheel_speed(p: Mapping[str, float], u: np.ndarray) -> float:
     w_f, w_r = float(u[0]), float(u[1])
@@ -86,10 +92,7 @@ SPEC = register(
         name="manf",
         c_id=20,
         title="MANF: modified adaptive nonlinear filter (seed 000)",
-        inputs=(
-            Signal("omega_f", "rad/s", q=16, doc="front wheel speed"),
-            Signal("omega_r", "rad/s", q=16, doc="rear wheel speed"),
-        ),
+        inputs=WHEEL_SPEEDS,
         outputs=(
             Signal("v", "m/s", q=16, doc="vehicle speed v̂_x"),
             Signal("rg", "m/s^2", q=24, doc="adaptive gain R_g"),

@@ -32,6 +32,7 @@ import numpy as np
 
 from vehil.estimators import register
 from vehil.estimators.base import EstimatorSpec, Param, Signal
+from vehil.estimators.manf import WHEEL_SPEEDS
 from vehil.plants import braking
 
 STATE_NAMES = {5: ("v_x", "v_y", "r", "omega_f", "omega_r"), 3: ("v_x", "omega_f", "omega_r")}
@@ -132,10 +133,7 @@ SPEC = register(
         name="uiiekf",
         c_id=21,
         title="UIIEKF: iterated EKF with the brake torque as an unknown input (seed 000)",
-        inputs=(
-            Signal("omega_f", "rad/s", q=16, doc="front wheel speed"),
-            Signal("omega_r", "rad/s", q=16, doc="rear wheel speed"),
-        ),
+        inputs=WHEEL_SPEEDS,
         outputs=(
             Signal("v", "m/s", q=16, doc="vehicle speed v̂_x"),
             Signal("d", "rad/s", q=16, doc="unknown-input innovation along C B (torque sign)"),
