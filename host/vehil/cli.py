@@ -315,11 +315,11 @@ def cmd_profile(args: argparse.Namespace) -> int:
             # At 115200 nothing but the UART limits streaming: its share is simavr's bit count.
             best = max(
                 (
-                    tp["board_line_fraction"]
+                    tp["line_fraction"]
                     for p in figures["sweep"]
                     if p["baud"] == 115200
                     for tp in p.get("throughput", [])
-                    if "board_line_fraction" in tp
+                    if "line_fraction" in tp
                 ),
                 default=None,
             )
