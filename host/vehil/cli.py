@@ -10,7 +10,7 @@ from pathlib import Path
 from rich.console import Console
 from rich.table import Table
 
-from vehil.boards import DEFAULT_BOARD, VIRTUAL_BOARDS, open_board
+from vehil.boards import DEFAULT_BOARD, VIRTUAL_BOARDS, Board, make_board, open_board
 from vehil.errors import VehilError
 from vehil.link import BoardInfo, Link
 from vehil.ping import PingSummary, run_ping
@@ -32,6 +32,12 @@ def _add_board_options(p: argparse.ArgumentParser) -> None:
         help="switch the link to this baud rate after connecting (the firmware boots at 1000000)",
     )
     p.add_argument("--timeout", type=float, default=2.0, help="seconds to wait for each reply")
+    p.add_argument(
+        "--faults",
+        default=None,
+        help="inject link faults once the board is up: drop=P,flip=P,dup=P,insert=P "
+        "(per byte, both ways), delay_ms=D, seed=N",
+    )
 
 
 def _add_run_options(p: argparse.ArgumentParser) -> None:
@@ -39,8 +45,12 @@ def _add_run_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", default=None, help="folder for run.arrow and the report")
 
 
+def _board(args: argparse.Namespace) -> Board:
+    return make_board(args.board, timeout_s=args.timeout, faults=args.faults)
+
+
 def _connect(args: argparse.Namespace):  # noqa: ANN202
-    return open_board(args.board, timeout_s=args.timeout)
+    return open_board(args.board, timeout_s=args.timeout, faults=args.faults)
 
 
 def _maybe_switch_baud(link: Link, baud: int | None) -> None:
@@ -199,7 +209,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     recording = Path(args.out) / "run.arrow" if args.out else None
     run = runner.run(
         sc,
-        args.board,
+        _board(args),
         realtime=args.realtime,
         window=args.window,
         recording=recording,
@@ -229,7 +239,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
     sc = scenario.parse(data, f"{sc_path} (replaying {log_path.name})", sc_path.resolve())
     recording = Path(args.out) / "run.arrow" if args.out else None
     run = runner.run(
-        sc, args.board, realtime=args.realtime, recording=recording, timeout_s=args.timeout
+        sc, _board(args), realtime=args.realtime, recording=recording, timeout_s=args.timeout
     )
     return _finish_run(run, None, f"replay of {log_path.name}: {sc.estimator.name} on {args.board}")
 

@@ -26,6 +26,9 @@ _RESET_CAUSES = {v: k for k, v in SCHEMA.reset_cause.items()}
 # Seq 0 is reserved for frames the board sends on its own (boot INFO, link errors).
 _FIRST_SEQ = 1
 MAX_FRAMES_IN_FLIGHT = 32
+# Sending these twice leaves the board as sending them once (CONFIG resets the estimator).
+_IDEMPOTENT = frozenset({"HELLO", "PING", "GET_STATS", "GET_ESTIMATOR", "CONFIG"})
+_RETRY_BACKOFF_S = 0.01
 _READ_SLICE_S = 0.02
 
 
@@ -123,6 +126,9 @@ class Link:
         self._seq = _FIRST_SEQ
         self._inbox: deque[tuple[framing.Frame, float]] = deque()
         self.stale_replies = 0
+        self.retries = 2  # for requests that change nothing on the board
+        self.max_frames = MAX_FRAMES_IN_FLIGHT  # a board may ask for fewer (QEMU)
+        self.retried = 0
         # Short reads, set once: changing a real port's timeout reconfigures the tty.
         self.port.timeout = _READ_SLICE_S
 
@@ -200,7 +206,7 @@ class Link:
         LinkError if a reply is skipped or a frame arrives that answers nothing.
         """
         budget = self.info.rx_buffer if self.info else 64
-        max_frames = min(window or MAX_FRAMES_IN_FLIGHT, MAX_FRAMES_IN_FLIGHT)
+        max_frames = min(window or self.max_frames, self.max_frames)
         pending: deque[tuple[int, str, bytes, float]] = deque()
         in_flight = 0
         last_reply_at = 0.0
@@ -257,8 +263,21 @@ class Link:
         )
 
     def request(self, name: str, **fields: Any) -> Reply:
-        """One request, stop-and-wait."""
-        return next(self.pipeline([(name, fields)], window=1))
+        """One request, stop-and-wait. Requests that change nothing on the board are sent
+        again after a lost or broken reply (`retries` times, backing off); the others,
+        a SAMPLE above all, are never repeated behind the caller's back."""
+        attempts = 1 + (self.retries if name in _IDEMPOTENT else 0)
+        for attempt in range(attempts):
+            try:
+                return next(self.pipeline([(name, fields)], window=1))
+            except BoardReset:
+                raise
+            except LinkError:
+                if attempt == attempts - 1:
+                    raise
+                self.retried += 1
+                time.sleep(_RETRY_BACKOFF_S * 2**attempt)
+        raise AssertionError("unreachable")
 
     # -- the protocol's verbs --------------------------------------------
 

@@ -97,10 +97,9 @@ def test_ctrl_c_stops_a_run_cleanly_and_keeps_what_was_recorded(tmp_path, built)
         ("mixed", "simavr", 30.0),
         ("mixed-fixed", "simavr", 30.0),
         ("hard-braking", "qemu", 6.0),
-        ("mixed-fixed", "qemu", 30.0),
         ("manf-hard-stop", "simavr", 4.0),
         ("manf-hard-stop-fixed", "simavr", 4.0),
-        ("manf-abs-snow", "qemu", 6.0),
+        ("manf-abs-snow", "simavr", 6.0),
         ("uiiekf3-abs-dry", "simavr", 1.5),
     ],
 )

@@ -19,10 +19,25 @@ class Board:
 
     name = "board"
     ready_timeout_s = 10.0
+    max_frames_in_flight: int | None = None  # None: as many as the board's RX buffer holds
 
-    def __init__(self, *, baud: int = DEFAULT_BAUD, timeout_s: float = 2.0):
+    def __init__(
+        self, *, baud: int = DEFAULT_BAUD, timeout_s: float = 2.0, faults: str | None = None
+    ):
         self.baud = baud
         self.timeout_s = timeout_s
+        self.faults = faults  # a faults:// spec, e.g. "drop=1e-3,seed=1"; armed once up
+
+    def port_url(self, url: str) -> str:
+        """The URL to open: the board's own, or wrapped in a fault injector."""
+        if not self.faults:
+            return url
+        from vehil.transports.protocol_faults import wrap_url
+
+        try:
+            return wrap_url(url, self.faults)
+        except ValueError as exc:
+            raise BoardStartError(f"--faults {self.faults!r}: {exc}") from None
 
     def start(self) -> str:
         """Brings the board up; returns the pyserial URL to reach it."""
@@ -33,7 +48,7 @@ class Board:
 
     def open_port(self, url: str) -> serial.SerialBase:
         try:
-            return serial.serial_for_url(url, baudrate=self.baud, timeout=0.02)
+            return serial.serial_for_url(self.port_url(url), baudrate=self.baud, timeout=0.02)
         except serial.SerialException as exc:
             raise BoardStartError(f"cannot open {self.name} at {url}: {exc}") from None
 
@@ -52,9 +67,14 @@ class Board:
         try:
             url = self.start()
             link = Link(self.open_port(url), timeout_s=self.timeout_s)
+            if self.max_frames_in_flight is not None:
+                link.max_frames = self.max_frames_in_flight
             try:
                 self.wait_ready(link)
                 link.hello()
+                arm = getattr(link.port, "arm", None)
+                if arm is not None:
+                    arm()  # faults start now that the board is up
                 yield link
             except LinkError as exc:
                 if type(exc) is LinkError:  # say what the board's process said, if anything

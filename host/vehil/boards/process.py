@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import ctypes
 import os
 import selectors
 import signal
@@ -10,6 +11,18 @@ import tempfile
 import time
 
 from vehil.errors import BoardStartError
+
+_PR_SET_PDEATHSIG = 1
+
+
+def _die_with_parent() -> None:
+    """In the child: if the host dies without stopping us (SIGKILL, a timeout), so do we.
+    Linux only; elsewhere the host's normal stop() is all there is."""
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL)
+    except (OSError, AttributeError):
+        pass
 
 
 class BoardProcess:
@@ -26,6 +39,7 @@ class BoardProcess:
                 stdout=subprocess.PIPE,
                 stderr=self._stderr,
                 start_new_session=True,  # Ctrl-C reaches us, and we stop it in order
+                preexec_fn=_die_with_parent,
             )
         except OSError as exc:
             raise BoardStartError(f"cannot start {name}: {argv[0]}: {exc.strerror}") from None

@@ -23,6 +23,9 @@ def _free_port() -> int:
 
 class QemuBoard(Board):
     name = "qemu"
+    # QEMU moves about 250 frames/s whatever the window, and with many frames in flight
+    # it sometimes slows to a crawl (seconds per frame): one at a time is as fast and safe.
+    max_frames_in_flight = 1
     connect_timeout_s = 10.0
 
     def __init__(self, *, elf: Path = FIRMWARE_ELF, **options: object):
@@ -65,7 +68,7 @@ class QemuBoard(Board):
         deadline = time.monotonic() + self.connect_timeout_s
         while True:
             try:
-                return serial.serial_for_url(url, baudrate=self.baud, timeout=0.02)
+                return serial.serial_for_url(self.port_url(url), baudrate=self.baud, timeout=0.02)
             except serial.SerialException:
                 if not self.process.alive():
                     raise self.process.failure("exited before accepting a connection") from None

@@ -34,7 +34,9 @@ class SerialBoard(Board):
 
     def open_port(self, url: str) -> serial.SerialBase:
         try:
-            return serial.serial_for_url(url, baudrate=self.baud, timeout=0.02, exclusive=True)
+            return serial.serial_for_url(
+                self.port_url(url), baudrate=self.baud, timeout=0.02, exclusive=True
+            )
         except serial.SerialException as exc:
             cause = exc.__context__ if isinstance(exc.__context__, OSError) else None
             code = getattr(cause, "errno", None) or getattr(exc, "errno", None)

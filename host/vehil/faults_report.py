@@ -1,0 +1,124 @@
+"""What the link does under each fault: `python -m vehil.faults_report [--board B]`.
+
+Per fault class and rate (per byte, both directions, seeded): PINGs sent once
+(detected = refused or timed out, wrongly accepted = an echo that differs), then
+with retries (recovered); SAMPLEs streamed through passthrough until the first
+loss (which must be reported, never skipped); and the time from a board reset to
+its next ready frame.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import random
+import struct
+import sys
+import time
+from typing import Any
+
+from rich.console import Console
+from rich.table import Table
+
+from vehil.boards import open_board
+from vehil.errors import LinkError
+
+CLASSES = ("drop", "flip", "dup", "insert")
+RATES = (1e-3, 1e-2)
+
+
+def measure(board: str, kind: str, rate: float, pings: int = 100) -> dict[str, Any]:
+    rng = random.Random(1)
+    with open_board(board, timeout_s=2.0, faults=f"{kind}={rate},seed=9") as link:
+        link.timeout_s = 0.1 if board == "simavr" else 0.3
+        link.retries = 0
+        ok = detected = wrong = 0
+        for _ in range(pings):
+            payload = rng.randbytes(16)
+            try:
+                echo = link.request("PING", payload=payload).fields()["payload"]
+            except LinkError:
+                detected += 1
+                continue
+            ok += 1
+            wrong += echo != payload
+        link.retries = 3
+        recovered = 0
+        for _ in range(pings):
+            with contextlib.suppress(LinkError):  # all retries lost: counted as not recovered
+                recovered += link.request("PING", payload=b"again").fields()["payload"] == b"again"
+        link.configure("passthrough", "F32")
+        streamed, loss = 0, ""
+        try:
+            inputs = (struct.pack("<4f", k, k, k, k) for k in range(2000))
+            for k, reply in enumerate(link.pipeline(("SAMPLE", {"inputs": x}) for x in inputs)):
+                if reply.fields()["outputs"] != struct.pack("<4f", k, k, k, k):
+                    wrong += 1
+                streamed += 1
+        except LinkError as exc:
+            loss = str(exc)
+        injected = sum(link.port.counts.values())
+    return {
+        "class": kind,
+        "rate": rate,
+        "injected": injected,
+        "sent": pings,
+        "ok": ok,
+        "detected": detected,
+        "wrong": wrong,
+        "recovered": recovered,
+        "samples_before_loss": streamed,
+        "loss": loss,
+    }
+
+
+def reset_recovery_s(board: str) -> float:
+    with open_board(board, timeout_s=2.0) as link:
+        start = time.perf_counter()
+        link.request("RESET", what=1)
+        link.wait_ready(10.0)
+        link.hello()
+        return time.perf_counter() - start
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m vehil.faults_report", description=__doc__)
+    parser.add_argument("--board", default="simavr")
+    args = parser.parse_args(argv)
+    console = Console()
+    t = Table(title=f"{args.board}: link faults (per byte, both directions)")
+    for col in (
+        "class",
+        "rate",
+        "injected",
+        "PINGs right",
+        "detected",
+        "wrongly accepted",
+        "recovered with retries",
+        "SAMPLEs before the first loss",
+        "loss reported as",
+    ):
+        t.add_column(col, justify="right" if col not in ("class", "loss reported as") else "left")
+    wrong_total = 0
+    for kind in CLASSES:
+        for rate in RATES:
+            r = measure(args.board, kind, rate)
+            wrong_total += r["wrong"]
+            t.add_row(
+                kind,
+                f"{rate:g}",
+                str(r["injected"]),
+                f"{r['ok']}/{r['sent']}",
+                str(r["detected"]),
+                str(r["wrong"]),
+                f"{r['recovered']}/{r['sent']}",
+                str(r["samples_before_loss"]),
+                r["loss"][:60] or "-",
+            )
+    console.print(t)
+    console.print(f"board reset to ready again: {reset_recovery_s(args.board) * 1e3:.0f} ms")
+    return 1 if wrong_total else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,149 @@
+"""Coverage-guided fuzzing of the firmware's message core: `python -m vehil.fuzz --seconds N`.
+
+Builds fuzz/fuzz_dispatch.c with the native board's sources under clang's libFuzzer,
+AddressSanitizer and UndefinedBehaviorSanitizer, seeds it with valid frames made from
+the schema (every request, a CONFIG and SAMPLEs for every estimator and mode), runs
+it, and prints executions, coverage and crashes (a crash leaves its input in
+build/fuzz/). Needs Debian's clang and libclang-rt-14-dev.
+"""
+
+from __future__ import annotations
+
+import argparse
+import random
+import re
+import shutil
+import subprocess
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+from vehil import estimators
+from vehil.build.native import c_flags
+from vehil.errors import BuildError
+from vehil.paths import BUILD_DIR, PROJECT_ROOT
+from vehil.protocol import frame as framing
+from vehil.protocol.schema import SCHEMA
+
+FUZZ_DIR = BUILD_DIR / "fuzz"
+HARNESS = PROJECT_ROOT / "fuzz" / "fuzz_dispatch.c"
+
+
+@dataclass(frozen=True)
+class FuzzResult:
+    executions: int
+    coverage: int
+    features: int
+    crashes: list[Path]
+    seconds: float
+
+
+def clang() -> str | None:
+    return shutil.which("clang") or shutil.which("clang-14")
+
+
+def build() -> Path:
+    cc = clang()
+    if cc is None:
+        raise BuildError("clang is not installed: `apt-get install clang libclang-rt-14-dev`")
+    sources = sorted(
+        p
+        for d in (PROJECT_ROOT / "firmware" / "lib", PROJECT_ROOT / "firmware" / "native")
+        for p in d.rglob("*.c")
+    )
+    FUZZ_DIR.mkdir(parents=True, exist_ok=True)
+    exe = FUZZ_DIR / "fuzz_dispatch"
+    flags = [f for f in c_flags() if f != "-Werror"]  # clang warns about more than gcc
+    cmd = [
+        cc,
+        *flags,
+        "-g",
+        "-fsanitize=fuzzer,address,undefined",
+        "-fno-sanitize-recover=all",
+        "-I",
+        str(PROJECT_ROOT / "firmware" / "lib"),
+        "-o",
+        str(exe),
+        str(HARNESS),
+        *map(str, sources),
+        "-lm",
+    ]
+    proc = subprocess.run(cmd, capture_output=True, text=True)
+    if proc.returncode != 0:
+        raise BuildError(f"fuzz harness build failed:\n{proc.stderr.strip()[-3000:]}")
+    return exe
+
+
+def _frame(name: str, seq: int, **fields: object) -> bytes:
+    return framing.encode(SCHEMA.messages[name].type, seq, SCHEMA.messages[name].pack(**fields))
+
+
+def seed_corpus(directory: Path, seed: int = 0) -> int:
+    """Valid frames, one conversation per file."""
+    rng = random.Random(seed)
+    directory.mkdir(parents=True, exist_ok=True)
+    files = {
+        "hello": _frame("HELLO", 1, protocol=SCHEMA.protocol_version),
+        "ping": _frame("PING", 2, payload=rng.randbytes(16)),
+        "stats": _frame("GET_STATS", 3),
+        "estimator": _frame("GET_ESTIMATOR", 4, index=1),
+        "baud": _frame("SET_BAUD", 5, baud=500_000),
+        "reset": _frame("RESET", 6, what=0),
+    }
+    for name, spec in estimators.estimators().items():
+        for mode in spec.modes:
+            params = spec.encode_params(spec.param_values({}), mode)
+            conv = _frame("CONFIG", 1, estimator=spec.c_id, mode=SCHEMA.mode[mode], params=params)
+            for k in range(4):
+                u = [rng.uniform(-50, 50) for _ in spec.inputs] or [1.0]
+                conv += _frame("SAMPLE", 2 + k, inputs=spec.encode_inputs(u, mode))
+            files[f"{name}-{mode.lower()}"] = conv
+    for name, data in files.items():
+        (directory / name).write_bytes(data)
+    return len(files)
+
+
+_STATS = re.compile(r"#(\d+)\s+DONE\s+cov: (\d+) ft: (\d+)")
+
+
+def run(seconds: float, *, jobs_dir: Path = FUZZ_DIR) -> FuzzResult:
+    exe = build()
+    corpus = jobs_dir / "corpus"
+    seed_corpus(corpus)
+    for old in jobs_dir.glob("crash-*"):
+        old.unlink()
+    proc = subprocess.run(
+        [
+            str(exe),
+            f"-max_total_time={int(seconds)}",
+            "-print_final_stats=1",
+            f"-artifact_prefix={jobs_dir}/",
+            str(corpus),
+        ],
+        capture_output=True,
+        text=True,
+    )
+    m = _STATS.search(proc.stderr)
+    crashes = sorted(jobs_dir.glob("crash-*"))
+    if m is None and not crashes:
+        raise BuildError(f"the fuzzer stopped unexpectedly:\n{proc.stderr[-2000:]}")
+    executions, coverage, features = (int(g) for g in m.groups()) if m else (0, 0, 0)
+    return FuzzResult(executions, coverage, features, crashes, seconds)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m vehil.fuzz", description=__doc__)
+    parser.add_argument("--seconds", type=float, default=60.0)
+    args = parser.parse_args(argv)
+    result = run(args.seconds)
+    print(
+        f"{result.executions:,} executions in {result.seconds:g} s, coverage {result.coverage} "
+        f"edges, {result.features} features, {len(result.crashes)} crashes"
+    )
+    for crash in result.crashes:
+        print(f"crash input: {crash}")
+    return 1 if result.crashes else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,134 @@
+"""`faults://INNER?drop=P&flip=P&dup=P&insert=P&delay_ms=D&seed=N`: a port that breaks bytes.
+
+Wraps any other pyserial URL (a board's pty, `socket://...`, `native://`) and injects,
+at seeded rates per byte and in both directions: loss (`drop`), a flipped bit
+(`flip`), repetition (`dup`) and insertion of a random byte (`insert`); `delay_ms`
+holds each write back. It is AUTOSAR E2E's fault model at the byte level: what the
+link must detect and never turn into a wrong accepted result. `counts` says what
+was injected. Faults start when `arm()` is called (boards arm it once the session
+is up), so a run can be broken on purpose without breaking its start.
+
+`wrap_url(url, spec)` builds the URL; spec is `drop=1e-3,flip=1e-3,seed=7`.
+"""
+
+from __future__ import annotations
+
+import random
+import time
+import urllib.parse
+from collections import Counter
+
+import serial
+from serial.serialutil import PortNotOpenError, SerialBase, SerialException
+
+KINDS = ("drop", "flip", "dup", "insert")
+
+
+def parse_spec(spec: str) -> dict[str, float]:
+    """`drop=1e-3,flip=1e-3,seed=7` -> rates; raises ValueError naming a bad item."""
+    out: dict[str, float] = {}
+    for item in filter(None, (s.strip() for s in spec.replace("&", ",").split(","))):
+        key, _, value = item.partition("=")
+        if key not in (*KINDS, "delay_ms", "seed"):
+            raise ValueError(
+                f"unknown fault {key!r}: use {', '.join(KINDS)}, delay_ms or seed (e.g. drop=1e-3)"
+            )
+        try:
+            out[key] = float(value)
+        except ValueError:
+            raise ValueError(f"fault {key} needs a number, got {value!r}") from None
+        if key in KINDS and not 0.0 <= out[key] <= 1.0:
+            raise ValueError(f"fault rate {key}={value} is not a probability in [0, 1]")
+    return out
+
+
+def wrap_url(url: str, spec: str) -> str:
+    query = urllib.parse.urlencode(parse_spec(spec))
+    return f"faults://{url}?{query}"
+
+
+class Serial(SerialBase):
+    """A serial port that passes bytes through another one, breaking some of them."""
+
+    _inner: serial.SerialBase | None = None
+
+    def open(self) -> None:
+        if self.is_open:  # type: ignore[has-type]
+            raise SerialException("port already open")
+        text = str(self.portstr)
+        if not text.startswith("faults://"):
+            raise SerialException(f"expected a faults:// URL, got {text!r}")
+        inner, _, query = text[len("faults://") :].rpartition("?")
+        if not inner:
+            inner, query = query, ""
+        try:
+            self.rates = parse_spec(query)
+        except ValueError as exc:
+            raise SerialException(f"{text}: {exc}") from None
+        self._rng = random.Random(int(self.rates.get("seed", 0)))
+        self.counts: Counter[str] = Counter()
+        self.armed = False
+        self._inner = serial.serial_for_url(inner, baudrate=self._baudrate, timeout=self._timeout)
+        self.is_open = True
+
+    def arm(self) -> None:
+        self.armed = True
+
+    def close(self) -> None:
+        if self._inner is not None:
+            self._inner.close()
+            self._inner = None
+        self.is_open = False
+
+    def _reconfigure_port(self) -> None:
+        if self._inner is not None:
+            self._inner.baudrate = self._baudrate
+            self._inner.timeout = self._timeout
+
+    def _break(self, data: bytes, direction: str) -> bytes:
+        if not self.armed:
+            return data
+        out = bytearray()
+        rng, rates = self._rng, self.rates
+        for byte in data:
+            if rng.random() < rates.get("insert", 0.0):
+                out.append(rng.randrange(256))
+                self.counts[f"insert {direction}"] += 1
+            if rng.random() < rates.get("drop", 0.0):
+                self.counts[f"drop {direction}"] += 1
+                continue
+            if rng.random() < rates.get("flip", 0.0):
+                byte ^= 1 << rng.randrange(8)
+                self.counts[f"flip {direction}"] += 1
+            out.append(byte)
+            if rng.random() < rates.get("dup", 0.0):
+                out.append(byte)
+                self.counts[f"dup {direction}"] += 1
+        return bytes(out)
+
+    @property
+    def in_waiting(self) -> int:
+        if self._inner is None:
+            raise PortNotOpenError()
+        return int(self._inner.in_waiting)
+
+    def read(self, size: int = 1) -> bytes:
+        if self._inner is None:
+            raise PortNotOpenError()
+        return self._break(self._inner.read(size), "from board")
+
+    def write(self, data: bytes) -> int:
+        if self._inner is None:
+            raise PortNotOpenError()
+        if self.armed and self.rates.get("delay_ms"):
+            time.sleep(self.rates["delay_ms"] / 1e3)
+        self._inner.write(self._break(bytes(data), "to board"))
+        return len(data)
+
+    def reset_input_buffer(self) -> None:
+        if self._inner is not None:
+            self._inner.reset_input_buffer()
+
+    def reset_output_buffer(self) -> None:
+        if self._inner is not None:
+            self._inner.reset_output_buffer()

@@ -1,0 +1,37 @@
+"""The fault-injecting port: specs are checked, faults are seeded and counted."""
+
+import pytest
+import serial
+
+from vehil.transports.protocol_faults import parse_spec, wrap_url
+
+
+def test_a_spec_becomes_a_url_and_bad_specs_name_the_problem() -> None:
+    assert wrap_url("native://", "drop=1e-3,seed=7") == "faults://native://?drop=0.001&seed=7.0"
+    with pytest.raises(ValueError, match="unknown fault 'lose'"):
+        parse_spec("lose=0.1")
+    with pytest.raises(ValueError, match="not a probability"):
+        parse_spec("flip=2")
+    with pytest.raises(ValueError, match="needs a number"):
+        parse_spec("dup=often")
+
+
+def test_faults_are_seeded_counted_and_only_after_arming() -> None:
+    def broken(seed: int) -> tuple[bytes, dict]:
+        port = serial.serial_for_url(
+            wrap_url("loop://", f"flip=0.05,drop=0.05,seed={seed}"), timeout=0.1
+        )
+        port.write(bytes(range(200)))
+        clean = port.read(200)
+        port.arm()
+        port.write(bytes(range(200)))
+        out = port.read(400)
+        counts = dict(port.counts)
+        port.close()
+        assert clean == bytes(range(200))
+        return out, counts
+
+    a, counts = broken(1)
+    assert a == broken(1)[0] != broken(2)[0]
+    assert counts["flip to board"] > 0 and counts["drop to board"] > 0
+    assert len(a) == 200 - counts["drop to board"] - counts.get("drop from board", 0)
