@@ -146,7 +146,7 @@ class Link:
                 return None
             try:
                 data = self.port.read(max(1, self.port.in_waiting))
-            except serial.SerialException as exc:
+            except (serial.SerialException, OSError) as exc:  # a vanished pty raises EIO
                 raise LinkError(f"the connection to the board broke: {exc}") from None
             if data:
                 now = time.perf_counter()
@@ -157,7 +157,7 @@ class Link:
         wire = framing.encode(SCHEMA.messages[name].type, seq, body)
         try:
             self.port.write(wire)
-        except serial.SerialException as exc:
+        except (serial.SerialException, OSError) as exc:
             raise LinkError(f"the connection to the board broke: {exc}") from None
         return wire, time.perf_counter()
 
