@@ -3,7 +3,9 @@
 #include <stddef.h>
 
 #include "estimators/acc_kf.h"
+#include "estimators/eso.h"
 #include "estimators/estimator.h"
+#include "estimators/kfui.h"
 #include "estimators/manf.h"
 #include "estimators/passthrough.h"
 #include "estimators/uiiekf.h"
@@ -13,6 +15,8 @@ static union {
     acc_kf_state_t acc_kf;
     manf_state_t manf;
     uiiekf_state_t uiiekf;
+    eso_state_t eso;
+    kfui_state_t kfui;
 } state;
 
 static const estimator_t *const registry[] = {
@@ -20,6 +24,8 @@ static const estimator_t *const registry[] = {
     &acc_kf_estimator,
     &manf_estimator,
     &uiiekf_estimator,
+    &eso_estimator,
+    &kfui_estimator,
 };
 
 uint8_t estimator_count(void) { return (uint8_t)(sizeof registry / sizeof registry[0]); }

@@ -116,3 +116,24 @@ int32_t fx_tanh(int32_t x, uint8_t qx, uint8_t q_out)
     y = (int32_t)((uint32_t)y << (q_out - 15u));
     return x < 0 ? -y : y;
 }
+
+int32_t fx_from_float(float x, uint8_t q, uint8_t *status)
+{
+    if (!(x == x)) {
+        *status |= STATUS_NOT_FINITE;
+        return 0;
+    }
+    float scaled = x;
+    for (uint8_t i = 0; i < q; i++) {
+        scaled *= 2.0f; /* exact: a power of two */
+    }
+    if (scaled >= 2147483647.0f) {
+        *status |= STATUS_SATURATED;
+        return FX_MAX;
+    }
+    if (scaled <= -2147483648.0f) {
+        *status |= STATUS_SATURATED;
+        return FX_MIN;
+    }
+    return (int32_t)(scaled < 0.0f ? scaled - 0.5f : scaled + 0.5f);
+}

@@ -42,4 +42,10 @@ int32_t fx_tanh(int32_t x, uint8_t qx, uint8_t q_out);
 /* sqrt(a) for a >= 0, both in q (negative input: 0 and STATUS_CLAMPED). */
 int32_t fx_sqrt(int32_t a, uint8_t q, uint8_t *status);
 
+/* Appended for seed 003 (configure-time conversions, not for a step's hot path). */
+
+/* round(x * 2^q) saturated to int32 (NaN gives 0 and STATUS_NOT_FINITE); q <= 62.
+ * Only multiplications by 2 and one rounding: the AVR and the host give the same bits. */
+int32_t fx_from_float(float x, uint8_t q, uint8_t *status);
+
 #endif

@@ -1,0 +1,77 @@
+/* Seed 003's signal conditioning (note §1.3 and addendum): one accelerometer channel ->
+ * 2nd-order Butterworth high-pass f_hp -> 2nd-order Butterworth low-pass f_lp ->
+ * trapezoid -> first-order high-pass f_post -> trapezoid -> first-order high-pass f_post
+ * -> displacement. Causal; designed in configure by the bilinear transform with
+ * prewarping (tan by a continued fraction, so the AVR and the host agree bit for bit).
+ * Params (3, in this order): f_hp Q24, f_lp Q24, f_post Q24 (0: no post high-pass).
+ * The high-pass runs in delta form (its poles sit near z = 1, where direct form I loses
+ * 0.35 % of the displacement to float32 rounding): with Δ = y1 - y2,
+ *   Δ <- (1 - c2) Δ + g (x - 2 x1 + x2) - c12 y1,  y = y1 + Δ,
+ * c2 = 1 - a2 = 2√2 K g, c12 = 1 + a1 + a2 = 4 K² g, g = 1/(1 + √2 K + K²).
+ * Fixed point: raw and low-passed data Q20 (m/s²), high-passed Q24 (±128 m/s²),
+ * coefficients Q29 (high-pass Q30),
+ * velocity Q24, displacement Q28. */
+#ifndef VEHIL_ESTIMATORS_ACCEL_COND_H
+#define VEHIL_ESTIMATORS_ACCEL_COND_H
+
+#include <stdint.h>
+
+#include "estimators/params.h"
+
+#define ACCEL_COND_N_PARAMS 3u
+
+typedef struct {
+    float b0, b1, b2, a1, a2;
+} biquad_f32_t;
+
+typedef struct {
+    int32_t b0, b1, b2, a1, a2; /* Q29 */
+} biquad_q_t;
+
+typedef struct {
+    float g, c2, c12; /* the high-pass in delta form */
+} hp_delta_f32_t;
+
+typedef struct {
+    int32_t g, c2, c12; /* Q30 */
+} hp_delta_q_t;
+
+typedef struct {
+    hp_delta_f32_t hp;
+    biquad_f32_t lp;
+    float half_T, alpha;
+} accel_cond_f32_t;
+
+typedef struct {
+    hp_delta_q_t hp;
+    biquad_q_t lp;
+    int32_t half_T, alpha; /* Q30 */
+} accel_cond_q_t;
+
+/* One channel's memory; the low-pass's input history is the high-pass's output history. */
+typedef struct {
+    float x1, x2, l1, l2; /* raw in, low-passed (the filtered acceleration) */
+    float h1, h2, dh;     /* the high-pass's output, its history and last step */
+    float v, x;           /* velocity and displacement */
+} accel_chan_f32_t;
+
+typedef struct {
+    int32_t x1, x2, l1, l2; /* Q20 */
+    int32_t h1, h2, dh;     /* Q24: the high-pass's output, its history and last step */
+    int32_t v;                      /* Q24 */
+    int32_t x;                      /* Q28 */
+} accel_chan_q_t;
+
+extern const param_range_t accel_cond_ranges[ACCEL_COND_N_PARAMS];
+
+void accel_cond_design_f32(accel_cond_f32_t *c, const uint8_t *params, uint8_t first,
+                           uint8_t mode, float T);
+void accel_cond_q_from_f32(accel_cond_q_t *q, const accel_cond_f32_t *c, uint8_t *status);
+
+/* One sample a (m/s²) in; the displacement out (ch->l1 is the filtered acceleration). */
+float accel_cond_step_f32(const accel_cond_f32_t *c, accel_chan_f32_t *ch, float a);
+/* a Q16 in, displacement Q28 out (ch->l1: filtered acceleration Q20). */
+int32_t accel_cond_step_q(const accel_cond_q_t *c, accel_chan_q_t *ch, int32_t a,
+                          uint8_t *status);
+
+#endif

@@ -1,0 +1,165 @@
+#include "estimators/eso.h"
+
+#include <math.h>
+#include <string.h>
+
+#include "fixmath/fixmath.h"
+#include "proto/wire.h"
+
+enum { P_T, P_EPS, P_VARIANT, N_OWN };
+#define N_PARAMS (N_OWN + SUSP_ECU_N_PARAMS)
+
+static const param_range_t ranges[N_OWN] = {{1e-4f, 0.05f, 30}, {0.02f, 2.0f, 24}, {0.0f, 1.0f, 0}};
+
+/* -- float32 ------------------------------------------------------------- */
+
+static uint8_t step_f32(eso_state_t *st, const uint8_t *in, uint8_t *out)
+{
+    eso_f32_t *s = &st->u.f32;
+    const qcar_f32_t *m = &s->ecu.model;
+    float *z = s->z;
+    float a_s = get_f32(in), a_us = get_f32(in + 4);
+    uint8_t status = 0;
+    if (!isfinite(a_s) || !isfinite(a_us)) {
+        status = STATUS_NOT_FINITE; /* keep the state, report it again */
+    } else {
+        float y_s = accel_cond_step_f32(&s->ecu.cond, &s->ecu.ch[0], a_s);
+        float y_us = accel_cond_step_f32(&s->ecu.cond, &s->ecu.ch[1], a_us);
+        float e1 = y_s - z[0], e2 = y_us - z[3], u = s->ecu.u;
+        float acc_s = z[2] + (u - s->fnl) / m->m_s; /* eq. 12, B-vectors 1/m_s, -1/m_us */
+        float acc_us = z[5] + (s->fnl - u) / m->m_us;
+        z[0] += s->T * z[1] + s->g[0] * e1;
+        z[1] += s->T * acc_s + s->g[1] * e1;
+        z[2] += s->g[2] * e1;
+        z[3] += s->T * z[4] + s->g[0] * e2;
+        z[4] += s->T * acc_us + s->g[1] * e2;
+        z[5] += s->g[2] * e2;
+    }
+    float dx = z[0] - z[3], dv = z[1] - z[4];
+    float fnl = qcar_strut_f32(m, dx, dv, 1);
+    s->fnl = st->variant ? fnl : 0.0f;
+    susp_est_f32_t est = {z[0], z[1], z[3], z[4], z[2] - s->fnl / m->m_s, z[5] + s->fnl / m->m_us,
+                          0.0f};
+    float strut = fnl + m->k1 * dx + m->c1 * dv;
+    est.x_r = est.x_us + (m->m_us * est.F2 - strut) / m->k_us;
+    if (status == 0) {
+        s->ecu.u = susp_ctrl_step_f32(&s->ecu.ctrl, &est, &status);
+    }
+    susp_ecu_put_f32(out, &est, s->ecu.u);
+    return status;
+}
+
+/* -- fixed point --------------------------------------------------------- */
+
+/* One observer, Euler (eq. 12): z Q28/Q24/Q20, y Q28, acceleration input Q20. */
+static void observer_q(const eso_q_t *s, int32_t *z, int32_t y, int32_t acc, uint8_t *st)
+{
+    int32_t e = fx_sub(y, z[0], st);
+    int32_t z0 = fx_add(z[0], fx_add(fx_mul(s->T, 30, z[1], 24, 28, st),
+                                     fx_mul(s->g1, 26, e, 28, 28, st), st), st);
+    int32_t z1 = fx_add(z[1], fx_add(fx_mul(s->T, 30, acc, 20, 24, st),
+                                     fx_mul(s->g2, 20, e, 28, 24, st), st), st);
+    z[2] = fx_add(z[2], fx_mul(s->g3, 16, e, 28, 20, st), st);
+    z[0] = z0;
+    z[1] = z1;
+}
+
+static uint8_t step_q(eso_state_t *st, const uint8_t *in, uint8_t *out)
+{
+    eso_q_t *s = &st->u.q;
+    const qcar_q_t *m = &s->ecu.model;
+    int32_t *z = s->z;
+    uint8_t status = 0;
+    int32_t y_s = accel_cond_step_q(&s->ecu.cond, &s->ecu.ch[0], get_i32(in), &status);
+    int32_t y_us = accel_cond_step_q(&s->ecu.cond, &s->ecu.ch[1], get_i32(in + 4), &status);
+    int32_t du = fx_sub(s->ecu.u, s->fnl, &status); /* u - f_nl, N Q16 */
+    observer_q(s, z, y_s, fx_add(z[2], fx_mul(du, 16, m->inv_m_s, 36, 20, &status), &status),
+               &status);
+    observer_q(s, z + 3, y_us,
+               fx_sub(z[5], fx_mul(du, 16, m->inv_m_us, 36, 20, &status), &status), &status);
+    int32_t dx = fx_sub(z[0], z[3], &status), dv = fx_sub(z[1], z[4], &status);
+    int32_t fnl = qcar_strut_q(m, dx, dv, 1, &status);
+    s->fnl = st->variant ? fnl : 0;
+    susp_est_q_t est = {
+        z[0], z[1], z[3], z[4],
+        fx_sub(z[2], fx_mul(s->fnl, 16, m->inv_m_s, 36, 20, &status), &status),
+        fx_add(z[5], fx_mul(s->fnl, 16, m->inv_m_us, 36, 20, &status), &status),
+        0,
+    };
+    int32_t strut = fx_add(fnl, fx_add(fx_mul(m->k1, 8, dx, 28, 16, &status),
+                                       fx_mul(m->c1, 16, dv, 24, 16, &status), &status),
+                           &status);
+    int32_t tire = fx_sub(fx_mul(m->m_us, 16, est.F2, 20, 16, &status), strut, &status);
+    est.x_r = fx_add(est.x_us, fx_mul(tire, 16, m->inv_k_us, 44, 28, &status), &status);
+    s->ecu.u = susp_ctrl_step_q(&s->ecu.ctrl, &est, &status);
+    susp_ecu_put_q(out, &est, s->ecu.u);
+    return status;
+}
+
+/* -- the estimator interface --------------------------------------------- */
+
+static void eso_reset(void *state)
+{
+    eso_state_t *st = state;
+    if (st->mode == MODE_F32) {
+        susp_ecu_reset_f32(&st->u.f32.ecu);
+        memset(st->u.f32.z, 0, sizeof st->u.f32.z);
+        st->u.f32.fnl = 0.0f;
+    } else {
+        susp_ecu_reset_q(&st->u.q.ecu);
+        memset(st->u.q.z, 0, sizeof st->u.q.z);
+        st->u.q.fnl = 0;
+    }
+}
+
+static uint8_t eso_configure(void *state, uint8_t mode, const uint8_t *params)
+{
+    eso_state_t *st = state;
+    uint8_t bad = params_check(params, mode, ranges, N_OWN);
+    if (bad == 0) {
+        bad = susp_ecu_check(params, mode, N_OWN);
+    }
+    if (bad != 0) {
+        return bad;
+    }
+    float T = param_value(params, P_T, mode, 30);
+    float w = 1.0f / param_value(params, P_EPS, mode, 24);
+    eso_f32_t f = {.T = T, .g = {T * 3.0f * w, T * 3.0f * w * w, T * w * w * w}};
+    susp_ecu_configure_f32(&f.ecu, params, N_OWN, mode, T);
+    st->mode = mode;
+    st->variant = param_value(params, P_VARIANT, mode, 0) >= 0.5f;
+    if (mode == MODE_F32) {
+        st->u.f32 = f;
+    } else {
+        uint8_t status = 0; /* the ranges keep every value inside its Q format */
+        eso_q_t *q = &st->u.q;
+        susp_ecu_q_from_f32(&q->ecu, &f.ecu, &status);
+        q->T = fx_from_float(T, 30, &status);
+        q->g1 = fx_from_float(f.g[0], 26, &status);
+        q->g2 = fx_from_float(f.g[1], 20, &status);
+        q->g3 = fx_from_float(f.g[2], 16, &status);
+    }
+    eso_reset(st);
+    return 0;
+}
+
+static uint8_t eso_step(void *state, const uint8_t *in, uint8_t in_len, uint8_t *out,
+                        uint8_t *out_len)
+{
+    eso_state_t *st = state;
+    (void)in_len;
+    *out_len = 4u * SUSP_ECU_N_OUTPUTS;
+    return st->mode == MODE_F32 ? step_f32(st, in, out) : step_q(st, in, out);
+}
+
+const estimator_t eso_estimator = {
+    .id = ESO_ID,
+    .name = "eso",
+    .modes = (1u << MODE_F32) | (1u << MODE_FIXED),
+    .n_inputs = 2,
+    .n_outputs = SUSP_ECU_N_OUTPUTS,
+    .n_params = N_PARAMS,
+    .configure = eso_configure,
+    .reset = eso_reset,
+    .step = eso_step,
+};

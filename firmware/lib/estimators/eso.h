@@ -1,0 +1,44 @@
+/* Seed 003's extended state observer inside the quarter-car ECU (note §1.4): two 3-state
+ * observers (eq. 12) on the displacements the conditioning integrates, β = 3/ε, 3/ε², 1/ε³
+ * (error poles at -1/ε), Euler at T. Variant A: no model inside (F̂ = z3, z6). Variant B:
+ * the nominal strut's nonlinear terms inside, the rest left to z3, z6 (see eso.py).
+ * x̂_r = x̂_us + (m_us F̂2 - f_s - f_d)/k_us. Then the predictive controller.
+ *
+ * Inputs  a_s, a_us [m/s²] Q16.   Outputs see susp_ecu.h.
+ * Params  T Q30, ε Q24, variant Q0, then the ECU tail (susp_ecu.h).
+ * float32 (step_f32) and fixed point (step_q): z Q28 (m), Q24 (m/s), Q20 (m/s²). */
+#ifndef VEHIL_ESTIMATORS_ESO_H
+#define VEHIL_ESTIMATORS_ESO_H
+
+#include <stdint.h>
+
+#include "estimators/estimator.h"
+#include "estimators/susp_ecu.h"
+
+#define ESO_ID 40u
+
+typedef struct {
+    susp_ecu_f32_t ecu;
+    float T, g[3]; /* T β1, T β2, T β3 (both observers share them) */
+    float z[6];
+    float fnl; /* variant B: the nonlinear strut force at z */
+} eso_f32_t;
+
+typedef struct {
+    susp_ecu_q_t ecu;
+    int32_t T, g1, g2, g3; /* Q30, Q26, Q20, Q16 */
+    int32_t z[6];          /* Q28 Q24 Q20, Q28 Q24 Q20 */
+    int32_t fnl;           /* N, Q16 */
+} eso_q_t;
+
+typedef struct {
+    uint8_t mode, variant;
+    union {
+        eso_f32_t f32;
+        eso_q_t q;
+    } u;
+} eso_state_t;
+
+extern const estimator_t eso_estimator;
+
+#endif

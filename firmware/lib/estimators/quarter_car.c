@@ -1,0 +1,54 @@
+#include "estimators/quarter_car.h"
+
+#include "fixmath/fixmath.h"
+
+const param_range_t qcar_ranges[QCAR_N_PARAMS] = {
+    {50.0f, 2000.0f, 16}, {35.0f, 500.0f, 16},  {0.0f, 1e6f, 8},     {-5e6f, 5e6f, 8},
+    {-8e6f, 8e6f, 8},     {0.0f, 2e4f, 16},     {-2e4f, 2e4f, 16},   {1e4f, 2e6f, 8},
+};
+
+void qcar_read_f32(qcar_f32_t *m, const uint8_t *params, uint8_t first, uint8_t mode)
+{
+    float v[QCAR_N_PARAMS];
+    for (uint8_t i = 0; i < QCAR_N_PARAMS; i++) {
+        v[i] = param_value(params, (uint8_t)(first + i), mode, qcar_ranges[i].q);
+    }
+    *m = (qcar_f32_t){v[0], v[1], v[2], v[3], v[4], v[5], v[6], v[7]};
+}
+
+void qcar_q_from_f32(qcar_q_t *q, const qcar_f32_t *m, uint8_t *status)
+{
+    *q = (qcar_q_t){
+        .k1 = fx_from_float(m->k1, 8, status),
+        .k2 = fx_from_float(m->k2, 8, status),
+        .k3 = fx_from_float(m->k3, 8, status),
+        .k_us = fx_from_float(m->k_us, 8, status),
+        .c1 = fx_from_float(m->c1, 16, status),
+        .c2 = fx_from_float(m->c2, 16, status),
+        .inv_m_s = fx_from_float(1.0f / m->m_s, 36, status),
+        .inv_m_us = fx_from_float(1.0f / m->m_us, 36, status),
+        .inv_k_us = fx_from_float(1.0f / m->k_us, 44, status),
+        .m_us = fx_from_float(m->m_us, 16, status),
+    };
+}
+
+float qcar_strut_f32(const qcar_f32_t *m, float dx, float dv, uint8_t nonlinear_only)
+{
+    float f = dx * dx * (m->k2 + m->k3 * dx) + m->c2 * dv * dv; /* eq. 2, literal square */
+    return nonlinear_only ? f : f + m->k1 * dx + m->c1 * dv;
+}
+
+int32_t qcar_strut_q(const qcar_q_t *m, int32_t dx, int32_t dv, uint8_t nonlinear_only,
+                     uint8_t *status)
+{
+    int32_t k = fx_add(m->k2, fx_mul(m->k3, 8, dx, 28, 8, status), status); /* Q8 */
+    int32_t dx2 = fx_mul(dx, 28, dx, 28, 28, status);
+    int32_t dv2 = fx_mul(dv, 24, dv, 24, 24, status);
+    int32_t f = fx_add(fx_mul(k, 8, dx2, 28, 16, status), fx_mul(m->c2, 16, dv2, 24, 16, status),
+                       status);
+    if (nonlinear_only) {
+        return f;
+    }
+    f = fx_add(f, fx_mul(m->k1, 8, dx, 28, 16, status), status);
+    return fx_add(f, fx_mul(m->c1, 16, dv, 24, 16, status), status);
+}

@@ -1,0 +1,37 @@
+/* Seed 003's nominal quarter car (note §1.1, Table 1), shared by the ESO, the KF-UI and
+ * the suspension controller: the strut force f_s + f_d (eq. 2, literal square damper)
+ * in float32 and in fixed point, and the model parameters read from CONFIG.
+ * Params (8, in this order): m_s Q16, m_us Q16, k1 Q8, k2 Q8, k3 Q8, c1 Q16, c2 Q16, k_us Q8. */
+#ifndef VEHIL_ESTIMATORS_QUARTER_CAR_H
+#define VEHIL_ESTIMATORS_QUARTER_CAR_H
+
+#include <stdint.h>
+
+#include "estimators/params.h"
+
+#define QCAR_N_PARAMS 8u
+
+typedef struct {
+    float m_s, m_us, k1, k2, k3, c1, c2, k_us;
+} qcar_f32_t;
+
+/* Fixed point: stiffnesses Q8 (N/m, N/m², N/m³), dampings Q16, masses as 1/m Q36
+ * (1/(m s²) per N), 1/k_us Q44 (m/N), m_us Q16. */
+typedef struct {
+    int32_t k1, k2, k3, k_us, c1, c2;
+    int32_t inv_m_s, inv_m_us, inv_k_us, m_us;
+} qcar_q_t;
+
+extern const param_range_t qcar_ranges[QCAR_N_PARAMS];
+
+/* The model from CONFIG's values starting at parameter `first`. */
+void qcar_read_f32(qcar_f32_t *m, const uint8_t *params, uint8_t first, uint8_t mode);
+void qcar_q_from_f32(qcar_q_t *q, const qcar_f32_t *m, uint8_t *status);
+
+/* f_s + f_d at deflection dx, rate dv (eq. 2); `nonlinear_only` leaves out k1 dx + c1 dv. */
+float qcar_strut_f32(const qcar_f32_t *m, float dx, float dv, uint8_t nonlinear_only);
+/* The same in fixed point: dx Q28 (m), dv Q24 (m/s) -> N Q16. */
+int32_t qcar_strut_q(const qcar_q_t *m, int32_t dx, int32_t dv, uint8_t nonlinear_only,
+                     uint8_t *status);
+
+#endif

@@ -1,0 +1,13 @@
+/* Inverse of a small symmetric positive-definite float32 matrix by Cholesky (row-major,
+ * n <= CHOL_F32_MAX_N, no malloc). */
+#ifndef VEHIL_LINALG_CHOL_F32_H
+#define VEHIL_LINALG_CHOL_F32_H
+
+#include <stdint.h>
+
+#define CHOL_F32_MAX_N 6u
+
+/* a (n×n, SPD) -> a⁻¹ in place; returns 0 if a pivot is not positive (a is then garbage). */
+uint8_t chol_inv_f32(float *a, uint8_t n);
+
+#endif

@@ -1,0 +1,73 @@
+"""Seed 003's C (conditioning + ESO/KF-UI + controller) against the float64 references, and
+the closed loop through the native board."""
+
+import numpy as np
+import pytest
+
+from vehil.boards import open_board
+from vehil.errors import BoardError
+from vehil.estimators import eso, kfui
+from vehil.papers.eso import U_MAX, board_loop
+
+
+@pytest.mark.parametrize(
+    ("name", "x_limit"),
+    [
+        ("s1-sine-eso", 1e-5),  # float32
+        ("s1-sine-eso-fixed", 2e-5),  # fixed point
+        ("s3-random-eso-b", 5e-5),
+        ("s4-random-kfui", 5e-5),
+    ],
+)
+def test_c_follows_the_reference(run_scenario, name: str, x_limit: float) -> None:  # noqa: ANN001
+    result = run_scenario(name, board="native")
+    result.assert_passed()
+    for out in ("x_s", "x_us", "x_r"):
+        assert result.figures["outputs"][out]["reference"]["max_abs"] < x_limit
+
+
+def test_the_closed_loop_fixed_point_stays_within_its_tolerance(run_scenario) -> None:  # noqa: ANN001
+    run_scenario("s5-iso-active-eso-fixed", board="native").assert_passed()
+
+
+def test_active_suspension_on_the_board_beats_passive(built) -> None:  # noqa: ANN001
+    active, _ = board_loop("s5-iso-active-eso", "native")
+    passive, _ = board_loop("s5-iso-passive", "native")
+    assert active.rms_a_body < 0.95 * passive.rms_a_body
+    assert active.max_u <= U_MAX and passive.max_u == 0.0
+
+
+def test_the_kfui_closes_the_loop_too(run_scenario) -> None:  # noqa: ANN001
+    run_scenario("s6-iso-active-kfui", board="native").assert_passed()
+
+
+@pytest.mark.parametrize(
+    ("spec", "mode", "bad", "name"),
+    [
+        (eso.SPEC, "F32", {"eps": 0.001}, "eps"),
+        (eso.SPEC, "FIXED", {"k_us": 1.0}, "k_us"),
+        (eso.SPEC, "F32", {"horizon": 2.0}, "horizon"),
+        (kfui.SPEC, "F32", {"integrator": 1.0}, "integrator"),  # RK4: reference only
+    ],
+)
+def test_an_out_of_range_parameter_is_refused_with_its_index(built, spec, mode, bad, name) -> None:  # noqa: ANN001
+    values = {p.name: p.default for p in spec.params} | bad
+    with open_board("native") as link, pytest.raises(BoardError, match="BAD_PARAM") as exc:
+        link.configure(spec.name, mode, spec.encode_params(values, mode))
+    assert exc.value.detail == [p.name for p in spec.params].index(name)
+
+
+@pytest.mark.parametrize("spec", [eso.SPEC, kfui.SPEC])
+def test_a_nan_input_is_flagged_and_leaves_the_state_alone(built, spec) -> None:  # noqa: ANN001
+    good = [0.3, -2.0]
+    with open_board("native") as link:
+        link.configure(spec.name, "F32", spec.encode_params(spec.param_values({}), "F32"))
+        frames = [good, good, [float("nan"), 0.0], good]
+        replies = list(
+            link.pipeline(("SAMPLE", {"inputs": spec.encode_inputs(u, "F32")}) for u in frames)
+        )
+    flags = [r.fields()["status"] for r in replies]
+    assert flags[2] & 0x02 and not flags[1] & 0x02
+    out = [spec.decode_outputs(r.fields()["outputs"], "F32") for r in replies]
+    np.testing.assert_array_equal(out[2], out[1])
+    assert np.all(np.isfinite(out[3]))

@@ -1,0 +1,105 @@
+"""Seed 003's references: conditioning, ESO (A, B, no updating), KF-UI and the controller."""
+
+import numpy as np
+import pytest
+from scipy import signal
+
+from vehil import plants
+from vehil.estimators import eso, kfui
+from vehil.estimators._accel_conditioning import Channel, _HighPass
+from vehil.estimators._quarter_car import NOMINAL
+from vehil.estimators._suspension_control import PredictiveController
+from vehil.papers import eso as paper
+
+
+def error_matrix(eps: float) -> np.ndarray:
+    b = eso.gains(eps)
+    return np.array([[-b[0], 1, 0], [-b[1], 0, 1], [-b[2], 0, 0]])
+
+
+@pytest.mark.parametrize("eps", [0.05, 0.1, 0.5])
+def test_the_eso_error_poles_are_minus_one_over_eps(eps: float) -> None:
+    np.testing.assert_allclose(np.linalg.eigvals(error_matrix(eps)), -1 / eps, rtol=1e-4)
+
+
+def test_the_steady_error_for_a_constant_h_is_remark_2s() -> None:
+    eps, H = 0.1, 2.0
+    z = np.linalg.solve(error_matrix(eps), -np.array([0, 0, 1.0]) * H)
+    np.testing.assert_allclose(np.abs(z), [eps**3 * H, 3 * eps**2 * H, 3 * eps * H], rtol=1e-9)
+
+
+def test_the_delta_form_high_pass_is_scipys_butterworth() -> None:
+    b, a = signal.butter(2, 0.5, "high", fs=100)
+    x = np.random.default_rng(0).normal(size=3000)
+    hp = _HighPass(0.5, 0.01)
+    np.testing.assert_allclose([hp.step(v) for v in x], signal.lfilter(b, a, x), atol=1e-9)
+
+
+def test_the_band_pass_removes_the_bias_the_raw_integration_keeps() -> None:
+    figures = paper.integration_check()
+    assert figures["unfiltered |x| at the end (m)"] > 1.0
+    assert figures["band-passed correlation with the in-band truth"] > 0.9
+    assert Channel(0.01, 0.5, 20, 0.1).step(0.035)[2] < 1e-6
+
+
+def test_model_updating_beats_no_updating_on_the_wheel_and_the_road() -> None:
+    errors = paper.observer_errors()
+    with_, without = errors["ESO B (updating)"], errors["no updating"]
+    for name in ("x_us", "v_us", "x_r"):
+        assert with_[name] < 0.9 * without[name]
+
+
+def test_variant_a_follows_a_1_hz_road_from_ideal_displacements() -> None:
+    p = plants.get("quarter_car").param_values(
+        {"road_freq": 1.0, "noise_var": 0.0, "bias_lo": 0.0, "bias_hi": 0.0}
+    )
+    trace = plants.get("quarter_car").run(p, 10.0, 0.01, 1)
+    obs = eso.Eso(eso.SPEC.param_values({}))
+    x_r = []
+    for y_s, y_us in zip(trace.truth["x_s"], trace.truth["x_us"], strict=True):
+        obs.step(y_s, y_us, 0.0)
+        x_r.append(obs.estimates()[3])
+    gain = np.std(x_r[500:]) / np.std(trace.truth["x_r"][500:])
+    assert 0.7 < gain < 1.3
+
+
+def test_the_controller_minimises_its_index() -> None:
+    p = eso.SPEC.param_values({})
+    ctrl = PredictiveController(NOMINAL, p)
+    x, F1, F2, x_r = np.array([0.01, -0.1, 0.002, 0.3]), 1.5, -20.0, 0.004
+    _, u = ctrl.law(x, F1, F2, x_r)
+    for du in (-1.0, 1.0):
+        assert ctrl.cost(u + du, x, F1, F2, x_r) > ctrl.cost(u, x, F1, F2, x_r)
+
+
+def test_the_kfui_jacobian_matches_finite_differences() -> None:
+    x = np.array([0.02, -0.3, -0.01, 0.5])
+    J = NOMINAL.jacobian(x)
+    h = 1e-7
+    for j in range(4):
+        dx = np.zeros(4)
+        dx[j] = h
+        fd = (np.array(NOMINAL.deriv(x + dx, 0, 0)) - np.array(NOMINAL.deriv(x - dx, 0, 0))) / 2 / h
+        np.testing.assert_allclose(J[:, j], fd, rtol=1e-5, atol=1e-3)
+
+
+def test_the_printed_covariance_update_is_the_short_form() -> None:
+    kf = kfui.KfUi(kfui.SPEC.param_values({}))
+    rng = np.random.default_rng(1)
+    m = rng.normal(size=(4, 4))
+    Pb = m @ m.T + np.eye(4)
+    H, D = kf.H(np.zeros(4)), kf.D
+    K = Pb @ H.T @ np.linalg.inv(kf.R + H @ Pb @ H.T)
+    S = 1 / float(D @ kf.Rinv @ (np.eye(4) - H @ K) @ D)
+    printed = (np.eye(4) + np.outer(K @ D * S, D) @ kf.Rinv @ H) @ (np.eye(4) - K @ H) @ Pb
+    short = (np.eye(4) - K @ H) @ Pb + S * np.outer(K @ D, K @ D)
+    np.testing.assert_allclose(printed, short, rtol=1e-6, atol=1e-8)
+
+
+def test_the_euler_kfui_and_the_rk4_kfui_both_track() -> None:
+    sc_trace = plants.get("quarter_car").run({"road": 1}, 15.0, 0.01, 2)
+    p = kfui.SPEC.param_values({"active": 0})
+    for integrator in (0, 1):
+        q = p | {"integrator": integrator}
+        errors = paper.state_errors(kfui.ecu(q), sc_trace, q)
+        assert errors["x_us"] < 0.5 * np.std(sc_trace.truth["x_us"])

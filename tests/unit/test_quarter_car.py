@@ -1,0 +1,71 @@
+"""Seed 003's quarter-car plant: equilibrium, mismatch, roads, integration, closed loop."""
+
+import numpy as np
+import pytest
+
+from vehil import plants
+from vehil.estimators._quarter_car import NOMINAL
+from vehil.plants.quarter_car import QuarterCarLoop, csv_road, simulate_with
+
+QUIET = {"noise_var": 0.0, "bias_lo": 0.0, "bias_hi": 0.0}
+
+
+def params(**given: float) -> dict[str, float]:
+    return plants.get("quarter_car").param_values(given)
+
+
+def test_a_flat_road_leaves_the_car_at_rest_and_the_sensors_show_their_bias() -> None:
+    trace = simulate_with(params(road_amp=0.0, noise_var=0.0), 2.0, 0.01, 1)
+    assert np.abs(trace.truth["x_s"]).max() == 0.0
+    assert trace.signals["a_s"].min() >= 0.03 and trace.signals["a_s"].max() <= 0.04
+
+
+def test_the_truth_differs_from_the_nominal_model() -> None:
+    plant = QuarterCarLoop(params(), 0.01, 1)
+    assert plant.car.m_s == pytest.approx(1.15 * NOMINAL.m_s)
+    assert plant.car.friction == 75.0 and plant.car.k1 != NOMINAL.k1
+
+
+def test_rk4_at_1_khz_agrees_with_a_finer_grid() -> None:
+    a = simulate_with(params(road=1, **QUIET), 5.0, 0.01, 1).truth["x_us"]
+    b = simulate_with(params(road=1, dt_int=0.00025, **QUIET), 5.0, 0.01, 1).truth["x_us"]
+    assert np.abs(a - b).max() < 1e-3 * np.abs(a).max()
+
+
+def test_the_sine_road_has_its_amplitude_and_the_iso_class_scales_by_two() -> None:
+    sine = simulate_with(params(road=0, road_amp=0.02), 4.0, 0.01, 1).truth["x_r"]
+    assert np.abs(sine).max() == pytest.approx(0.02, rel=1e-3)
+    c = simulate_with(params(road=2, iso_class=3), 10.0, 0.01, 1).truth["x_r"]
+    d = simulate_with(params(road=2, iso_class=4), 10.0, 0.01, 1).truth["x_r"]
+    assert np.std(d) / np.std(c) == pytest.approx(2.0, rel=1e-6)  # same noise, 4x the PSD
+
+
+def test_the_closed_loop_with_no_force_is_the_open_loop_drive() -> None:
+    p = params(road=1)
+    trace = plants.get("quarter_car").run(p, 2.0, 0.01, 5)
+    plant = plants.get("quarter_car").start_loop(p, 0.01, 5)
+    for k in range(200):
+        _, signals, _ = plant.measure()
+        assert signals["a_s"] == trace.signals["a_s"][k]
+        plant.apply({"u": 0.0})
+
+
+def test_a_held_force_lifts_the_body_and_the_wheel_settles_back_on_the_road() -> None:
+    trace = simulate_with(params(road_amp=0.0, **QUIET), 8.0, 0.01, 1, force=lambda t, tr: 500.0)
+    assert trace.truth["x_us"][:20].min() < -1e-4  # pushed down first (eqs. 4-5's sign)
+    assert trace.truth["x_s"][-1] > 0.03 and abs(trace.truth["x_us"][-1]) < 1e-5
+
+
+def test_a_recorded_profile_is_read_from_csv(tmp_path) -> None:  # noqa: ANN001
+    path = tmp_path / "road.csv"
+    path.write_text("t,x_r\n0,0\n1,0.01\n2,0.01\n")
+    trace = simulate_with(params(), 2.0, 0.01, 1, road=csv_road(path, 0.001))
+    assert trace.truth["x_r"][50] == pytest.approx(0.005)
+    assert trace.truth["x_r"][-1] == pytest.approx(0.01)
+
+
+def test_forward_euler_at_100_hz_is_unstable_for_the_wheel_hop_mode() -> None:
+    lam = np.linalg.eigvals(NOMINAL.jacobian([0, 0, 0, 0]))
+    growth = np.abs(1 + 0.01 * lam)
+    assert growth.max() == pytest.approx(1.079, abs=2e-3)  # note §1.2
+    assert np.abs(lam).max() / (2 * np.pi) == pytest.approx(9.25, abs=0.01)
