@@ -149,10 +149,7 @@ static void kfui_reset(void *state)
 static uint8_t kfui_configure(void *state, uint8_t mode, const uint8_t *params)
 {
     kfui_state_t *s = state;
-    uint8_t bad = params_check(params, mode, ranges, N_OWN);
-    if (bad == 0) {
-        bad = susp_ecu_check(params, mode, N_OWN);
-    }
+    uint8_t bad = susp_ecu_check(params, mode, ranges, N_OWN);
     if (bad != 0) {
         return bad;
     }

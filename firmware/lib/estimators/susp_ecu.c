@@ -4,8 +4,13 @@
 
 #include "proto/wire.h"
 
-uint8_t susp_ecu_check(const uint8_t *params, uint8_t mode, uint8_t first)
+uint8_t susp_ecu_check(const uint8_t *params, uint8_t mode, const param_range_t *own,
+                       uint8_t first)
 {
+    uint8_t bad = params_check(params, mode, own, first);
+    if (bad != 0) {
+        return bad;
+    }
     static const struct {
         const param_range_t *ranges;
         uint8_t n;
@@ -15,7 +20,7 @@ uint8_t susp_ecu_check(const uint8_t *params, uint8_t mode, uint8_t first)
         {susp_ctrl_ranges, SUSP_CTRL_N_PARAMS},
     };
     for (uint8_t b = 0; b < 3u; b++) {
-        uint8_t bad = params_check(params + 4u * first, mode, blocks[b].ranges, blocks[b].n);
+        bad = params_check(params + 4u * first, mode, blocks[b].ranges, blocks[b].n);
         if (bad != 0) {
             return (uint8_t)(first + bad);
         }

@@ -31,8 +31,10 @@ typedef struct {
     int32_t u; /* Q16 */
 } susp_ecu_q_t;
 
-/* 0, or 1 + the index of the first bad parameter of the tail starting at `first`. */
-uint8_t susp_ecu_check(const uint8_t *params, uint8_t mode, uint8_t first);
+/* 0, or 1 + the index of the first bad parameter: the estimator's own `first` ones
+ * (checked against `own`), then the shared tail. */
+uint8_t susp_ecu_check(const uint8_t *params, uint8_t mode, const param_range_t *own,
+                       uint8_t first);
 
 /* Designs from CONFIG (the tail at `first`); the float model is also what FIXED starts from. */
 void susp_ecu_configure_f32(susp_ecu_f32_t *e, const uint8_t *params, uint8_t first,
