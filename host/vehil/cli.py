@@ -463,11 +463,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--timeout", type=float, default=2.0)
     p.set_defaults(func=cmd_bench)
 
-    from vehil import papers
+    # Paper modules import their plants and references (scipy): only when the command
+    # is not a built-in one, so `vehil info` or `vehil ping` start at once.
+    words = [a for a in (sys.argv[1:] if argv is None else argv) if not a.startswith("-")]
+    if not words or words[0] not in sub.choices:
+        from vehil import papers
 
-    for module in papers.papers().values():
-        if hasattr(module, "add_commands"):
-            module.add_commands(sub, console)
+        for module in papers.papers().values():
+            if hasattr(module, "add_commands"):
+                module.add_commands(sub, console)
 
     args = parser.parse_args(argv)
     if getattr(args, "size", None) == -1:
