@@ -170,6 +170,19 @@ def symbol_sizes(prefix: str, elf: Path = FIRMWARE_ELF) -> dict[str, int]:
     return {"flash": flash, "ram": ram}
 
 
+def frame_bytes(spec: estimators.EstimatorSpec) -> tuple[int, int]:
+    """Bytes on the wire of one SAMPLE and its RESULT."""
+    request = 4 * len(spec.inputs) + 6  # type, seq, CRC, COBS overhead and delimiter
+    reply = 4 * len(spec.outputs) + 11  # + status u8 and cycles u32
+    return request, reply
+
+
+def stop_and_wait_s(spec: estimators.EstimatorSpec, baud: int, compute_s: float) -> float:
+    """One sample sent, computed and answered, at 10 bits per byte."""
+    request, reply = frame_bytes(spec)
+    return (request + reply) * 10 / baud + compute_s
+
+
 def estimator_costs(
     link: Link, board: str, max_samples: int = 2000, elf: Path = FIRMWARE_ELF
 ) -> list[dict[str, Any]]:
@@ -201,17 +214,15 @@ def estimator_costs(
                 rows.append(row)
                 continue
             fig = evaluate(series_from_run(run))
-            n_in, n_out = len(spec.inputs), len(spec.outputs)
-            request = 4 * n_in + 6  # type, seq, CRC, COBS overhead and delimiter
-            reply = 4 * n_out + 11  # + status u8 and cycles u32
+            request, reply = frame_bytes(spec)
             compute_s = fig["cycles"]["max"] / F_CPU
             rates = {}
             for baud in BAUDS_DEFAULT:
-                wire = (request + reply) * 10 / baud
+                exchange = stop_and_wait_s(spec, baud, compute_s)
                 rates[str(baud)] = {
-                    "stop_and_wait_hz": 1 / (wire + compute_s),
+                    "stop_and_wait_hz": 1 / exchange,
                     "pipelined_hz": 1 / max(max(request, reply) * 10 / baud, compute_s),
-                    "real_board_hz": 1 / (wire + compute_s + USB_BRIDGE_S),
+                    "real_board_hz": 1 / (exchange + USB_BRIDGE_S),
                 }
             row.update(
                 scenario=sc.name,

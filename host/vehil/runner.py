@@ -83,6 +83,10 @@ def prepare(scenario: Scenario) -> Prepared:
     else:
         assert scenario.log is not None
         trace = trace_from_log(scenario.log, spec, scenario.sample_time, scenario.duration)
+    if spec.delay:
+        # A windowed estimate is for the window's centre: compare it with the truth there.
+        d = spec.delay
+        trace.truth = {n: np.concatenate([v[:1].repeat(d), v[:-d]]) for n, v in trace.truth.items()}
     columns = []
     for s in spec.inputs:
         source = scenario.signals.get(s.name, s.name)

@@ -101,6 +101,9 @@ def test_ctrl_c_stops_a_run_cleanly_and_keeps_what_was_recorded(tmp_path, built)
         ("manf-hard-stop-fixed", "simavr", 4.0),
         ("manf-abs-snow", "simavr", 6.0),
         ("uiiekf3-abs-dry", "simavr", 1.5),
+        ("paper-dither", "simavr", 15.0),
+        ("rls-flat-steps", "simavr", 20.0),
+        ("mass-step", "qemu", 3.0),
     ],
 )
 def test_estimators_on_the_chip_match_their_references(run_scenario, name, board, duration) -> None:  # noqa: ANN001, E501

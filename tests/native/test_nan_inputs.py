@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from vehil.boards import open_board
-from vehil.estimators import acc_kf, eso, kfui
+from vehil.estimators import acc_kf, eso, kfui, stlqf
 
 
 @pytest.mark.parametrize(
@@ -13,6 +13,8 @@ from vehil.estimators import acc_kf, eso, kfui
         (acc_kf.SPEC, [0.1, 60.0, 60.0, 0.0], [float("nan"), 60.0, 60.0, 0.0]),
         (eso.SPEC, [0.3, -2.0], [float("nan"), 0.0]),
         (kfui.SPEC, [0.3, -2.0], [float("nan"), 0.0]),
+        (stlqf.STLQF, [20.0, 0.5, 2000.0], [20.0, float("nan"), 2000.0]),
+        (stlqf.RLS, [20.0, 0.5, 2000.0], [20.0, float("nan"), 2000.0]),
     ],
     ids=lambda x: getattr(x, "name", ""),
 )

@@ -8,6 +8,8 @@
 #include "estimators/kfui.h"
 #include "estimators/manf.h"
 #include "estimators/passthrough.h"
+#include "estimators/rls.h"
+#include "estimators/stlqf.h"
 #include "estimators/uiiekf.h"
 
 static union {
@@ -17,6 +19,8 @@ static union {
     uiiekf_state_t uiiekf;
     eso_state_t eso;
     kfui_state_t kfui;
+    stlqf_state_t stlqf;
+    rls_state_t rls;
 } state;
 
 static const estimator_t *const registry[] = {
@@ -26,6 +30,8 @@ static const estimator_t *const registry[] = {
     &uiiekf_estimator,
     &eso_estimator,
     &kfui_estimator,
+    &stlqf_estimator,
+    &rls_estimator,
 };
 
 uint8_t estimator_count(void) { return (uint8_t)(sizeof registry / sizeof registry[0]); }

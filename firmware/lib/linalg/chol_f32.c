@@ -2,10 +2,9 @@
 
 #include <math.h>
 
-uint8_t chol_inv_f32(float *a, uint8_t n)
+/* L (lower) with L Lᵀ = a, into l (n×n, zero above the diagonal); 0 if a pivot is not positive. */
+static uint8_t factor(const float *a, uint8_t n, float *l)
 {
-    float l[CHOL_F32_MAX_N * CHOL_F32_MAX_N] = {0};
-    /* A = L Lᵀ */
     for (uint8_t i = 0; i < n; i++) {
         for (uint8_t j = 0; j <= i; j++) {
             float s = a[i * n + j];
@@ -21,6 +20,42 @@ uint8_t chol_inv_f32(float *a, uint8_t n)
                 l[i * n + j] = s / l[j * n + j];
             }
         }
+    }
+    return 1;
+}
+
+uint8_t chol_solve_f32(float *a, float *b, uint8_t n, float *cond)
+{
+    if (!factor(a, n, a)) {
+        return 0;
+    }
+    float lo = a[0], hi = a[0];
+    for (uint8_t i = 0; i < n; i++) { /* L y = b */
+        float s = b[i];
+        for (uint8_t k = 0; k < i; k++) {
+            s -= a[i * n + k] * b[k];
+        }
+        float d = a[i * n + i];
+        b[i] = s / d;
+        lo = d < lo ? d : lo;
+        hi = d > hi ? d : hi;
+    }
+    for (uint8_t i = n; i-- > 0u;) { /* Lᵀ x = y */
+        float s = b[i];
+        for (uint8_t k = (uint8_t)(i + 1u); k < n; k++) {
+            s -= a[k * n + i] * b[k];
+        }
+        b[i] = s / a[i * n + i];
+    }
+    *cond = (hi / lo) * (hi / lo);
+    return 1;
+}
+
+uint8_t chol_inv_f32(float *a, uint8_t n)
+{
+    float l[CHOL_F32_MAX_N * CHOL_F32_MAX_N] = {0};
+    if (!factor(a, n, l)) {
+        return 0;
     }
     /* L⁻¹ in place (lower triangular) */
     for (uint8_t i = 0; i < n; i++) {

@@ -1,4 +1,4 @@
-/* Inverse of a small symmetric positive-definite float32 matrix by Cholesky (row-major,
+/* Small symmetric positive-definite float32 systems by Cholesky (row-major,
  * n <= CHOL_F32_MAX_N, no malloc). */
 #ifndef VEHIL_LINALG_CHOL_F32_H
 #define VEHIL_LINALG_CHOL_F32_H
@@ -9,5 +9,10 @@
 
 /* a (n×n, SPD) -> a⁻¹ in place; returns 0 if a pivot is not positive (a is then garbage). */
 uint8_t chol_inv_f32(float *a, uint8_t n);
+
+/* Solves a x = b: x overwrites b, a is overwritten by its factor. Returns 0 if a
+ * pivot is not positive, else 1 with *cond = (max L_ii / min L_ii)², a cheap lower
+ * estimate of a's condition number. */
+uint8_t chol_solve_f32(float *a, float *b, uint8_t n, float *cond);
 
 #endif

@@ -46,6 +46,7 @@
 #define STATUS_NOT_FINITE 0x02u
 #define STATUS_SINGULAR 0x04u
 #define STATUS_CLAMPED 0x08u
+#define STATUS_ILL_CONDITIONED 0x10u
 
 /* INFO reset causes */
 #define RESET_CAUSE_UNKNOWN 0x00u

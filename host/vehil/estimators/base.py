@@ -109,6 +109,7 @@ class EstimatorSpec:
     params: tuple[Param, ...] = ()
     modes: tuple[str, ...] = MODES
     paper: str = ""  # the seed note it follows, e.g. "004-acc-speed-kalman-patent"
+    delay: int = 0  # samples: output k estimates the truth at sample k - delay
     doc: str = ""
     extra: dict[str, object] = field(default_factory=dict)
 

@@ -1,0 +1,37 @@
+/* The longitudinal regression of seed 002 (eq. 24) that STLQF and RLS share:
+ * m v̇ + C_dA_f ½ρv² + m sin(ε + β_r) g/cos ε = F_x, ψ = [v̇, ½ρv², g/cos ε],
+ * θ = [m, C_dA_f, m sin(ε + β_r)]. */
+#ifndef VEHIL_ESTIMATORS_LONGIT_H
+#define VEHIL_ESTIMATORS_LONGIT_H
+
+#include <stdint.h>
+
+#include "estimators/params.h"
+
+/* The parameters both take last, in this order (host: stlqf.SHARED_PARAMS). */
+enum { LONGIT_EPS, LONGIT_RHO, LONGIT_G, LONGIT_M0, LONGIT_CDA0, LONGIT_N_PARAMS };
+extern const param_range_t longit_ranges[LONGIT_N_PARAMS];
+
+typedef struct {
+    float eps, half_rho, g_cos; /* ε, ½ρ, g / cos ε */
+    float m0, cda0;
+} longit_t;
+
+/* 0 if the estimator's own n_own parameters and then the shared ones are in range,
+ * else 1 + the index of the first bad one. */
+uint8_t longit_check(const uint8_t *params, uint8_t mode, const param_range_t *own, uint8_t n_own);
+
+/* Reads the shared parameters starting at index `first`. */
+void longit_configure(longit_t *l, const uint8_t *params, uint8_t first);
+
+/* ψ and z from a SAMPLE's v, v̇, z; STATUS_NOT_FINITE (and nothing read) if one is not finite. */
+uint8_t longit_inputs(const longit_t *l, const uint8_t *in, float *psi, float *z);
+
+/* θ(0) = [m0, C_dA_f0, m0 sin ε] (a level road). */
+void longit_initial(const longit_t *l, float *theta);
+
+/* Writes m̂, Ĉ_dA_f and β̂_r = asin(θ3/θ1) - ε in degrees; returns STATUS_CLAMPED when
+ * |θ3/θ1| > 1 or m̂ <= 0 (the grade is then clamped). */
+uint8_t longit_outputs(const longit_t *l, float m, float cda, float m_sin, uint8_t *out);
+
+#endif

@@ -1,0 +1,81 @@
+"""STLQF and RLS (seed 002), float64: the equations as the note reads them, and recovery."""
+
+import math
+
+import numpy as np
+import pytest
+
+from vehil import plants
+from vehil.estimators import stlqf
+
+
+def _params(**kw: float) -> dict[str, float]:
+    return stlqf.STLQF.param_values(kw)
+
+
+def test_the_window_system_is_eq_23_with_the_corrected_filter() -> None:
+    """G and U equal Σ_k W_kᵀ A W_k and Σ_k W_kᵀ A Z_k written out with α, β, γ of eq. 16
+    as corrected (β = -(1/T + 2/T²)) over the 11-sample window, 7 terms, time from the centre."""
+    p = _params()
+    rng = np.random.default_rng(3)
+    v, v_dot, z = 20 + rng.normal(0, 1, 11), rng.normal(0, 1, 11), 2000 + rng.normal(0, 50, 11)
+    est = stlqf.Stlqf(p)
+    for k in range(11):
+        est.step(np.array([v[k], v_dot[k], z[k]]))
+    gram, rhs = est.window_system()
+
+    T = p["T"]
+    alpha, beta, gamma = 1 + 1 / T + 1 / T**2, -(1 / T + 2 / T**2), 1 / T**2
+    assert alpha + beta + gamma == pytest.approx(1.0)
+    a = np.array([[5, 3, 2], [3, 5, 3], [2, 3, 5]], float)
+    tau = np.arange(11) - 5
+    psi = np.column_stack([v_dot, 0.5 * p["rho"] * v**2, np.full(11, p["g"] / math.cos(p["eps"]))])
+    phi = np.column_stack([c for j in range(3) for c in (tau * psi[:, j], psi[:, j])])
+    filt = lambda x, k: alpha * x[k] + beta * x[k - 1] + gamma * x[k - 2]  # noqa: E731
+    g_direct, u_direct = np.zeros((6, 6)), np.zeros(6)
+    for k in range(4, 11):
+        w = np.array([filt(phi, k - i) for i in range(3)])
+        zz = np.array([filt(z, k - i) for i in range(3)])
+        g_direct += w.T @ a @ w
+        u_direct += w.T @ a @ zz
+    np.testing.assert_allclose(gram, g_direct, rtol=1e-6)
+    np.testing.assert_allclose(rhs, u_direct, rtol=1e-6)
+
+
+def test_stlqf_recovers_mass_drag_and_grade_from_a_well_excited_drive() -> None:
+    trace = plants.get("longitudinal").run({"road": 2, "dither": 0.05}, 20.0, 0.01, 1)
+    u = np.column_stack([trace.signals[n] for n in ("v", "v_dot", "z")])
+    est = stlqf.Stlqf(_params(mu=1e-4))  # float64 needs little regularisation
+    out = np.array([est.step(x) for x in u])
+    d = stlqf.WL  # the estimate is for the window centre
+    for j, name, limit in ((0, "m", 0.5), (1, "cda", 0.05), (2, "grade", 0.5)):
+        err = out[500:, j] - trace.truth[name][500 - d : len(out) - d]
+        assert np.sqrt(np.mean(err**2)) < limit, name
+
+
+def test_a_weight_matrix_that_is_not_positive_definite_is_refused() -> None:
+    assert stlqf.weights_ok(_params())
+    assert stlqf.weights_ok(_params(**stlqf.CODE_WEIGHTS))
+    assert not stlqf.weights_ok(_params(a11=1.0, a12=3.0))
+
+
+def test_rls_recovers_constant_parameters_on_a_flat_road() -> None:
+    trace = plants.get("longitudinal").run({"road": 1, "profile": 1}, 30.0, 0.01, 1)
+    u = np.column_stack([trace.signals[n] for n in ("v", "v_dot", "z")])
+    est = stlqf.Rls(stlqf.RLS.param_values({}))
+    out = np.array([est.step(x) for x in u])
+    assert abs(out[-1, 0] - 1250.0) < 0.1
+    assert abs(out[-1, 1] - 0.48) < 1e-3
+    assert abs(out[-1, 2]) < 0.01
+
+
+def test_the_plant_satisfies_the_regression_it_feeds() -> None:
+    """Eq. 24 holds sample by sample once the car moves (σ_N only on z)."""
+    trace = plants.get("longitudinal").run({}, 30.0, 0.01, 2)
+    s, t = trace.signals, trace.truth
+    beta = np.radians(t["grade"])
+    lhs = t["m"] * s["v_dot"] + t["cda"] * 0.5 * 1.206 * s["v"] ** 2
+    lhs += t["m"] * 9.81 * (0.015 * np.cos(beta) + np.sin(beta))
+    moving = s["v"] > 0.5
+    assert np.abs(lhs - s["z"])[moving].max() < 1e-2
+    assert 300 < np.sum(s["v"]) * 0.01 < 600  # from rest: ~0.4 km in the first 30 s
