@@ -151,33 +151,37 @@ static void push(stlqf_state_t *s, const float *x)
 }
 
 /* The window's θ: G = Xᵀ X and U = Xᵀ R ζ, Jacobi-scaled, (G_s + μ I) y = U_s + μ y_prior. */
+static float dot(const float *a, const float *b)
+{
+    float sum = 0.0f;
+    for (uint8_t i = 0; i < STLQF_ROWS; i++) {
+        sum += a[i] * b[i];
+    }
+    return sum;
+}
+
 static uint8_t solve(stlqf_state_t *s, float *cond)
 {
-    float g[36] = {0}, rhs[6] = {0};
-    float phi_tau[STLQF_ROWS][2];
+    /* Φ̃'s varying columns [τ v̇, v̇, τ q, q] and ζ, then X = R Φ̃ column by column. */
+    float phi[5][STLQF_ROWS], x[5][STLQF_ROWS];
     for (uint8_t j = 0; j < STLQF_ROWS; j++) {
-        phi_tau[j][0] = tau(j) * s->rows[j][0] + s->rows[j][2];
-        phi_tau[j][1] = tau(j) * s->rows[j][1] + s->rows[j][3];
+        const float *row = s->rows[j];
+        phi[0][j] = tau(j) * row[0] + row[2];
+        phi[1][j] = row[0];
+        phi[2][j] = tau(j) * row[1] + row[3];
+        phi[3][j] = row[1];
+        phi[4][j] = row[4];
     }
-    for (uint8_t i = 0; i < STLQF_ROWS; i++) {
-        float x[7] = {0}; /* X's row i: [τ v̇, v̇, τ q, q, τ g', g'] filtered, then R ζ */
-        for (uint8_t d = 0; d < 3u && i + d < STLQF_ROWS; d++) {
-            uint8_t j = (uint8_t)(i + d);
-            float w = s->band[i][d];
-            x[0] += w * phi_tau[j][0];
-            x[1] += w * s->rows[j][0];
-            x[2] += w * phi_tau[j][1];
-            x[3] += w * s->rows[j][1];
-            x[6] += w * s->rows[j][4];
+    for (uint8_t c = 0; c < 5u; c++) {
+        band_apply(s->band, phi[c], x[c]);
+    }
+    const float *col[7] = {x[0], x[1], x[2], x[3], s->x_g[0], s->x_g[1], x[4]};
+    float g[36], rhs[6];
+    for (uint8_t a = 0; a < 6u; a++) {
+        for (uint8_t b = 0; b <= a && b < 4u; b++) {
+            g[a * 6u + b] = dot(col[a], col[b]);
         }
-        x[4] = s->x_g[0][i];
-        x[5] = s->x_g[1][i];
-        for (uint8_t a = 0; a < 6u; a++) {
-            for (uint8_t b = 0; b <= a && b < 4u; b++) {
-                g[a * 6u + b] += x[a] * x[b];
-            }
-            rhs[a] += x[a] * x[6];
-        }
+        rhs[a] = dot(col[a], col[6]);
     }
     g[4 * 6 + 4] = s->g_gg[0];
     g[5 * 6 + 4] = s->g_gg[1];

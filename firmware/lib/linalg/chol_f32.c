@@ -2,8 +2,10 @@
 
 #include <math.h>
 
-/* L (lower) with L Lᵀ = a, into l (n×n, zero above the diagonal); 0 if a pivot is not positive. */
-static uint8_t factor(const float *a, uint8_t n, float *l)
+/* L (lower) with L Lᵀ = a, into l (n×n, zero above the diagonal), and 1 / L_ii into inv
+ * (multiplying by it is cheaper than dividing on a soft-float core); 0 if a pivot is not
+ * positive. */
+static uint8_t factor(const float *a, uint8_t n, float *l, float *inv)
 {
     for (uint8_t i = 0; i < n; i++) {
         for (uint8_t j = 0; j <= i; j++) {
@@ -16,8 +18,9 @@ static uint8_t factor(const float *a, uint8_t n, float *l)
                     return 0;
                 }
                 l[i * n + i] = sqrtf(s);
+                inv[i] = 1.0f / l[i * n + i];
             } else {
-                l[i * n + j] = s / l[j * n + j];
+                l[i * n + j] = s * inv[j];
             }
         }
     }
@@ -26,40 +29,40 @@ static uint8_t factor(const float *a, uint8_t n, float *l)
 
 uint8_t chol_solve_f32(float *a, float *b, uint8_t n, float *cond)
 {
-    if (!factor(a, n, a)) {
+    float inv[CHOL_F32_MAX_N];
+    if (!factor(a, n, a, inv)) {
         return 0;
     }
-    float lo = a[0], hi = a[0];
+    float lo = inv[0], hi = inv[0];
     for (uint8_t i = 0; i < n; i++) { /* L y = b */
         float s = b[i];
         for (uint8_t k = 0; k < i; k++) {
             s -= a[i * n + k] * b[k];
         }
-        float d = a[i * n + i];
-        b[i] = s / d;
-        lo = d < lo ? d : lo;
-        hi = d > hi ? d : hi;
+        b[i] = s * inv[i];
+        lo = inv[i] < lo ? inv[i] : lo;
+        hi = inv[i] > hi ? inv[i] : hi;
     }
     for (uint8_t i = n; i-- > 0u;) { /* Lᵀ x = y */
         float s = b[i];
         for (uint8_t k = (uint8_t)(i + 1u); k < n; k++) {
             s -= a[k * n + i] * b[k];
         }
-        b[i] = s / a[i * n + i];
+        b[i] = s * inv[i];
     }
-    *cond = (hi / lo) * (hi / lo);
+    *cond = (hi / lo) * (hi / lo); /* (max L_ii / min L_ii)² */
     return 1;
 }
 
 uint8_t chol_inv_f32(float *a, uint8_t n)
 {
-    float l[CHOL_F32_MAX_N * CHOL_F32_MAX_N] = {0};
-    if (!factor(a, n, l)) {
+    float l[CHOL_F32_MAX_N * CHOL_F32_MAX_N] = {0}, inv[CHOL_F32_MAX_N];
+    if (!factor(a, n, l, inv)) {
         return 0;
     }
     /* L⁻¹ in place (lower triangular) */
     for (uint8_t i = 0; i < n; i++) {
-        l[i * n + i] = 1.0f / l[i * n + i];
+        l[i * n + i] = inv[i];
         for (uint8_t j = 0; j < i; j++) {
             float s = 0.0f;
             for (uint8_t k = j; k < i; k++) {
