@@ -180,6 +180,11 @@ def _finish_run(run, out_dir: Path | None, title: str) -> int:  # noqa: ANN001
         f"{', closed loop' if sc.closed_loop else ''}); "
         f"{run.ended}"
     )
+    for r in run.resumes:
+        console.print(
+            f"[yellow]board reset before sample {r.at_sample:,}[/] ({r.reason}): it caught up "
+            f"on the samples before and the run went on after {r.recovery_s * 1e3:.0f} ms"
+        )
     folder = out_dir or (run.recording.parent if run.recording else None)
     if folder is not None:
         context = {
@@ -193,6 +198,10 @@ def _finish_run(run, out_dir: Path | None, title: str) -> int:  # noqa: ANN001
             "wall_s": round(run.wall_s, 3),
             "samples_per_s": round(rate, 1),
             "recording": str(run.recording) if run.recording else None,
+            "board_resets": [
+                {"at_sample": r.at_sample, "recovery_s": round(r.recovery_s, 3)}
+                for r in run.resumes
+            ],
         }
         md = report.write(series, figures, context, folder)
         console.print(f"recording {run.recording}\nreport    {md}")

@@ -2,9 +2,11 @@
 
 Per fault class and rate (per byte, both directions, seeded): PINGs sent once
 (detected = refused or timed out, wrongly accepted = an echo that differs), then
-with retries (recovered); SAMPLEs streamed through passthrough until the first
-loss (which must be reported, never skipped); and the time from a board reset to
-its next ready frame.
+with retries (recovered); SAMPLEs streamed through passthrough, every lost request
+or reply sent again with what followed it (go-back-N; the board answers a repeated
+sample from its RESULT cache), until the stream ends or a sample is lost for good
+(which must be reported, never skipped); and the time from a board reset to its
+next ready frame.
 """
 
 from __future__ import annotations
@@ -27,7 +29,9 @@ CLASSES = ("drop", "flip", "dup", "insert")
 RATES = (1e-3, 1e-2)
 
 
-def measure(board: str, kind: str, rate: float, pings: int = 100) -> dict[str, Any]:
+def measure(
+    board: str, kind: str, rate: float, pings: int = 100, samples: int = 2000
+) -> dict[str, Any]:
     rng = random.Random(1)
     with open_board(board, timeout_s=2.0, faults=f"{kind}={rate},seed=9") as link:
         link.timeout_s = 0.1 if board == "simavr" else 0.3
@@ -47,16 +51,19 @@ def measure(board: str, kind: str, rate: float, pings: int = 100) -> dict[str, A
         for _ in range(pings):
             with contextlib.suppress(LinkError):  # all retries lost: counted as not recovered
                 recovered += link.request("PING", payload=b"again").fields()["payload"] == b"again"
+        link.retries = 10
         link.configure("passthrough", "F32")
-        streamed, loss = 0, ""
+        streamed, loss, resent = 0, "", link.retried
         try:
-            inputs = (struct.pack("<4f", k, k, k, k) for k in range(2000))
+            inputs = (struct.pack("<4f", k, k, k, k) for k in range(samples))
             for k, reply in enumerate(link.pipeline(("SAMPLE", {"inputs": x}) for x in inputs)):
                 if reply.fields()["outputs"] != struct.pack("<4f", k, k, k, k):
                     wrong += 1
                 streamed += 1
         except LinkError as exc:
             loss = str(exc)
+        resent = link.retried - resent
+        replayed = link.stats()["replayed"] if not loss else -1
         injected = sum(link.port.counts.values())
     return {
         "class": kind,
@@ -67,7 +74,10 @@ def measure(board: str, kind: str, rate: float, pings: int = 100) -> dict[str, A
         "detected": detected,
         "wrong": wrong,
         "recovered": recovered,
-        "samples_before_loss": streamed,
+        "samples": samples,
+        "streamed": streamed,
+        "resent": resent,
+        "replayed": replayed,
         "loss": loss,
     }
 
@@ -95,7 +105,9 @@ def main(argv: list[str] | None = None) -> int:
         "detected",
         "wrongly accepted",
         "recovered with retries",
-        "SAMPLEs before the first loss",
+        "SAMPLEs through",
+        "go-back-N resends",
+        "answered from cache",
         "loss reported as",
     ):
         t.add_column(col, justify="right" if col not in ("class", "loss reported as") else "left")
@@ -112,7 +124,9 @@ def main(argv: list[str] | None = None) -> int:
                 str(r["detected"]),
                 str(r["wrong"]),
                 f"{r['recovered']}/{r['sent']}",
-                str(r["samples_before_loss"]),
+                f"{r['streamed']}/{r['samples']}",
+                str(r["resent"]),
+                str(r["replayed"]) if r["replayed"] >= 0 else "-",
                 r["loss"][:60] or "-",
             )
     console.print(t)
