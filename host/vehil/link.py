@@ -29,7 +29,7 @@ MAX_FRAMES_IN_FLIGHT = 32
 # Sending these twice leaves the board as sending them once: CONFIG resets the estimator,
 # and a SAMPLE's index makes the board answer a repeat from its RESULT cache.
 _RETRYABLE = frozenset({"HELLO", "PING", "GET_STATS", "GET_ESTIMATOR", "CONFIG", "SAMPLE"})
-_RETRY_BACKOFF_S = 0.01
+_RETRY_BACKOFF_S = (0.01, 0.2)  # first wait, longest wait
 _READ_SLICE_S = 0.02
 
 
@@ -144,7 +144,7 @@ class Link:
         self._inbox: deque[tuple[framing.Frame, float]] = deque()
         self.stale_replies = 0
         self.wrong_type_replies = 0
-        self.retries = 2  # for requests that sending twice does not change
+        self.retries = 5  # for requests that sending twice does not change
         self.max_frames = MAX_FRAMES_IN_FLIGHT  # a board may ask for fewer (QEMU)
         self.retried = 0
         self.sample_index = 0  # the next SAMPLE's index: 0 after CONFIG
@@ -269,7 +269,7 @@ class Link:
                 if attempt == self.retries or any(p.name not in _RETRYABLE for p in pending):
                     raise
             self.retried += 1
-            time.sleep(_RETRY_BACKOFF_S * 2**attempt)
+            time.sleep(min(_RETRY_BACKOFF_S[0] * 2**attempt, _RETRY_BACKOFF_S[1]))
             for p in pending:
                 self._transmit(p)
             last_reply_at = 0.0

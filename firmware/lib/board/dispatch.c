@@ -199,10 +199,14 @@ static void on_reset(const frame_t *f)
         core.estimator->reset(estimator_state());
         results_clear();
         send_ack(f->seq, f->type);
-    } else if (r.what == 1) {
+    } else if (r.what == 1 || r.what == 2) {
         send_ack(f->seq, f->type);
         port_flush();
-        port_reboot();
+        if (r.what == 1) {
+            port_reboot();
+        } else {
+            port_hang();
+        }
     } else {
         send_error(f->seq, f->type, ERR_BAD_PARAM, 0);
     }

@@ -92,7 +92,9 @@ static inline void msg_config_unpack(const uint8_t *body, msg_config_t *m)
     m->mode = get_u8(body + 1);
 }
 
-/* RESET: what=0: reset the configured estimator's state; what=1: reboot the board (watchdog). */
+/* RESET: what=0: reset the configured estimator's state; what=1: reboot the board (watchdog);
+what=2: hang with interrupts off until the watchdog resets the board (its self-test: INFO
+then gives reset_cause WATCHDOG; a board without a watchdog, QEMU's, stays hung). */
 #define MSG_RESET_FIXED_SIZE 1u
 typedef struct {
     uint8_t what;
