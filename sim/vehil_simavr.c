@@ -600,8 +600,14 @@ static int load_ihex(const char *path, uint8_t *mem, uint32_t size, uint32_t *lo
 		case 4:		/* extended linear address: bits 16..31 */
 			base = ((uint32_t)rec[4] << 8 | rec[5]) << 16;
 			break;
-		default:
+		case 3:
+		case 5:
 			break;
+		default:
+			diag("cannot load bootloader '%s': line %u has record type %u, not Intel HEX",
+				path, lineno, rec[3]);
+			fclose(f);
+			return -1;
 		}
 	}
 	fclose(f);
