@@ -336,6 +336,7 @@ static uint8_t out_buf[1u << 16];
 static size_t out_len;
 static int out_flush_now;
 static avr_cycle_count_t out_last_cycle;
+static avr_cycle_count_t in_last_cycle;	/* last byte fed to the UART */
 
 /* extra VCD signals */
 enum { SIG_TX, SIG_TX_STB, SIG_RX, SIG_RX_STB, SIG_XOFF, SIG_SLEEP, SIG_COUNT };
@@ -433,6 +434,7 @@ static void feed_uart(void)
 		uint8_t b = rx_ring[tail % RX_RING_SIZE];
 		tail++;
 		avr_raise_irq(g_uart_in, b);
+		in_last_cycle = g_avr->cycle;
 	}
 	atomic_store_explicit(&rx_tail, tail, memory_order_release);
 }
@@ -655,17 +657,23 @@ static void save_flash_image(avr_t *avr)
 		diag("cannot save the flash to '%s': %s", opt.flash_image, strerror(errno));
 }
 
-/* The bootloader waits about a second for the host before it starts the
- * application.  Free-running, that second would pass in ~0.1 s of wall time,
- * before avrdude (which spends 0.1 s pulsing DTR) has said a word.  So while
- * the CPU is in the boot section and the host has sent nothing since the last
- * reset, simulated time keeps to wall time. */
+/* The bootloader gives up on the host after a timeout: about a second after
+ * a reset (then it starts the application), and again mid-session.
+ * Free-running, a second passes in ~0.08 s of wall time: before avrdude (which
+ * spends 0.1 s pulsing DTR) has said a word, or whenever a loaded host pauses.
+ * So once the CPU has been in the boot section with the line quiet both ways
+ * for 10 ms, simulated time keeps to wall time, and the timeouts last as on a
+ * chip (10 ms longer at most).  Between bytes and pages it runs free:
+ * programming is not slowed down. */
 static int g_boot_paced;
-static size_t g_boot_mark;		/* rx_head at the last reset */
 
 static void boot_pace(avr_t *avr)
 {
-	int waiting = avr->pc >= g_boot_start && atomic_load(&rx_head) == g_boot_mark;
+	avr_cycle_count_t last = in_last_cycle > out_last_cycle ? in_last_cycle : out_last_cycle;
+	/* the UART's FIFO accessors are not exported: compare its cursors */
+	int waiting = avr->pc >= g_boot_start && !rx_pending() && out_len == 0
+		&& (!g_uart || g_uart->input.read == g_uart->input.write)
+		&& avr->cycle - last > avr->frequency / 100;
 	if (waiting && !g_boot_paced) {	/* wall time starts now, not at the last pacing */
 		rt_base_ns = mono_ns();
 		rt_base_cycle = avr->cycle;
@@ -1188,7 +1196,6 @@ static void reset_chip(avr_t *avr)
 	out_len = 0;
 	out_flush_now = 0;
 	atomic_store(&rx_tail, mark);
-	g_boot_mark = mark;
 }
 
 /* Bootloader mode: opens of the pty slave, seen from the first one on. */

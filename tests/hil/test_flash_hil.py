@@ -2,9 +2,13 @@
 stk500v2 bootloader on simavr, and what runs afterwards is what it wrote."""
 
 import dataclasses
+import functools
+import operator
+import time
 from pathlib import Path
 
 import pytest
+import serial
 from rich.console import Console
 
 from vehil import compare, flash, runner, scenario
@@ -21,9 +25,23 @@ pytestmark = [
 ]
 
 
-@pytest.fixture
-def image(built, tmp_path: Path) -> Path:  # noqa: ANN001
-    return flash.to_hex(built["firmware"], tmp_path / "firmware.hex")
+Flashed = tuple[flash.FlashResult, Path, dict]
+
+
+@pytest.fixture(scope="module")
+def image(built, tmp_path_factory) -> Path:  # noqa: ANN001
+    return flash.to_hex(built["firmware"], tmp_path_factory.mktemp("image") / "firmware.hex")
+
+
+@pytest.fixture(scope="module")
+def flashed_once(image: Path, tmp_path_factory) -> Flashed:  # noqa: ANN001
+    """The firmware flashed through the bootloader, once for the module: what avrdude
+    did, the flash image the board left, and the INFO the firmware then sent."""
+    flash_bin = tmp_path_factory.mktemp("board") / "flash.bin"
+    board = SimavrBootloaderBoard(flash_image=flash_bin, timeout_s=3.0)
+    with flash.flashed(board, image) as (result, link):
+        assert link.info is not None
+        return result, flash_bin, {"info": link.info}
 
 
 def _flip_byte(src: Path, dst: Path, address: int) -> int:
@@ -45,15 +63,13 @@ def _flip_byte(src: Path, dst: Path, address: int) -> int:
 
 
 def test_flash_through_the_bootloader_then_the_flashed_firmware_runs_a_scenario(
-    image: Path, tmp_path: Path
+    flashed_once: Flashed, tmp_path: Path
 ) -> None:
-    flash_bin = tmp_path / "flash.bin"
-    board = SimavrBootloaderBoard(flash_image=flash_bin, timeout_s=3.0)
-    with flash.flashed(board, image) as (result, link):
-        assert result.bytes > 40_000
-        assert 0 < result.write_s < 10 and 0 < result.verify_s < 10
-        assert link.info is not None and link.info.f_cpu == 16_000_000
-        assert "passthrough" in [e.name for e in link.info.estimators]
+    result, flash_bin, seen = flashed_once
+    assert result.bytes > 40_000
+    assert 0 < result.write_s < 10 and 0 < result.verify_s < 10
+    assert seen["info"].f_cpu == 16_000_000
+    assert "passthrough" in [e.name for e in seen["info"].estimators]
     # The flash outlives the bridge: a new one starts from it and runs 1,000 samples.
     written = flash_bin.read_bytes()
     boot = MEGA_BOOTLOADER_HEX.read_text()
@@ -104,9 +120,30 @@ def test_the_cli_says_why_it_cannot_flash(image: Path, capsys) -> None:  # noqa:
 
 def test_avrdude_on_a_missing_port_is_stopped_at_once_with_the_reason(image: Path) -> None:
     # avrdude 7.1 would spin at 100 % CPU for good after failing to open the port.
-    import time
-
     start = time.monotonic()
     with pytest.raises(NoPort, match="No such file"):
         flash.run_avrdude("/dev/ttyNOPE", image, timeout_s=20)
     assert time.monotonic() - start < 5
+
+
+def _stk500v2(seq: int, body: bytes) -> bytes:
+    msg = bytes([0x1B, seq, len(body) >> 8, len(body) & 0xFF, 0x0E]) + body
+    return msg + bytes([functools.reduce(operator.xor, msg)])
+
+
+def test_the_bootloader_waits_for_a_host_that_pauses_as_long_as_on_a_chip(
+    flashed_once: Flashed,
+) -> None:
+    # Its timeout (~4.5 s at 16 MHz) would pass in ~0.4 s free-running: a host that
+    # paused that long would meet the firmware instead. Sign on, pause, sign on again.
+    _, flash_bin, _ = flashed_once
+    board = SimavrBootloaderBoard(flash_image=flash_bin)
+    try:
+        port = serial.Serial(board.start(), 115200, timeout=1.0)
+        for seq, pause in enumerate((0.1, 1.5)):
+            time.sleep(pause)
+            port.write(_stk500v2(seq, b"\x01"))  # CMD_SIGN_ON
+            assert b"AVRISP_2" in port.read(19), f"no answer after {pause} s"
+        port.close()
+    finally:
+        board.stop()
