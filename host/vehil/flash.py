@@ -50,7 +50,6 @@ class FlashResult:
     seconds: float  # the whole avrdude run, reset and sign-on included
     write_s: float  # avrdude's own figures, from its progress bars
     verify_s: float
-    output: str
 
 
 def to_hex(elf: Path, out: Path) -> Path:
@@ -102,13 +101,13 @@ _NO_SYNC = re.compile(
 def avrdude_error(output: str, port: str, part: str = PART) -> VehilError:
     """The error a failed avrdude run stands for, from what it printed."""
     tail = "\n".join(output.strip().splitlines()[-12:])
+    mismatch = None  # address, expected, got
     if m := _MISMATCH_7.search(output):
-        got, expected, address = int(m[1], 16), int(m[2], 16), int(m[3], 16)
+        mismatch = int(m[3], 16), int(m[2], 16), int(m[1], 16)
     elif m := _MISMATCH_6.search(output):
-        address, expected, got = int(m[1], 16), int(m[2], 16), int(m[3], 16)
-    else:
-        m = None
-    if m:
+        mismatch = int(m[1], 16), int(m[2], 16), int(m[3], 16)
+    if mismatch:
+        address, expected, got = mismatch
         return VerifyMismatch(
             f"verification failed at address 0x{address:05x}: expected 0x{expected:02x} "
             f"(the image), got 0x{got:02x} (read back from the flash). Flash again; if "
@@ -228,7 +227,6 @@ def run_avrdude(
         seconds=seconds,
         write_s=times["Writing"],
         verify_s=times["Reading"],
-        output=output,
     )
 
 
@@ -237,9 +235,10 @@ def flashed(
     board: Board,
     image: Path,
     *,
+    part: str = PART,
     baud: int = BOOTLOADER_BAUD,
     verify_with: Path | None = None,
-    **avrdude: object,
+    timeout_s: float = AVRDUDE_TIMEOUT_S,
 ) -> Iterator[tuple[FlashResult, Link]]:
     """Starts the board, programs IMAGE through its bootloader, and yields what avrdude
     did with the link to the firmware it now runs (ready frame seen, INFO read)."""
@@ -253,7 +252,9 @@ def flashed(
         url = board.start()
         board.enter_bootloader(url)
         port = avrdude_port(url)
-        result = run_avrdude(port, image, baud=baud, verify_with=verify_with, **avrdude)  # type: ignore[arg-type]
+        result = run_avrdude(
+            port, image, part=part, baud=baud, verify_with=verify_with, timeout_s=timeout_s
+        )
         with board.session(url) as link:
             yield result, link
     finally:
