@@ -90,7 +90,8 @@ _SIGNATURE_GOT = re.compile(r"device signature = (0x[0-9A-Fa-f]+)", re.I)
 _HEX = "0x([0-9a-f]+)"
 _MISMATCH_7 = re.compile(rf"device {_HEX} != input {_HEX} at addr {_HEX}", re.I)
 _MISMATCH_6 = re.compile(rf"first mismatch at byte {_HEX}\s+{_HEX} != {_HEX}", re.I)
-_CANNOT_OPEN = re.compile(r"(?:can't open device|cannot open port) \"?([^\":]+)\"?: (.*)", re.I)
+# the whole line: avrdude's output is read as it comes, a line may arrive in parts
+_CANNOT_OPEN = re.compile(r"(?:can't open device|cannot open port) \"?([^\":]+)\"?: (.*)\n", re.I)
 _NO_SYNC = re.compile(
     r"getsync|not in sync|timeout communicating|ReceiveMessage\(\): timeout|"
     r"programmer is not responding|failed to sync",
