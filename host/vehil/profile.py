@@ -172,7 +172,7 @@ def symbol_sizes(prefix: str, elf: Path = FIRMWARE_ELF) -> dict[str, int]:
 
 def frame_bytes(spec: estimators.EstimatorSpec) -> tuple[int, int]:
     """Bytes on the wire of one SAMPLE and its RESULT."""
-    request = 4 * len(spec.inputs) + 6  # type, seq, CRC, COBS overhead and delimiter
+    request = 4 * len(spec.inputs) + 8  # index u16, type, seq, CRC, COBS overhead, delimiter
     reply = 4 * len(spec.outputs) + 11  # + status u8 and cycles u32
     return request, reply
 
