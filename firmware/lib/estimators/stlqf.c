@@ -57,13 +57,12 @@ static uint8_t band_factor(float band[STLQF_ROWS][3], const float a[3][3])
 /* X = R col for a column given per row. */
 static void band_apply(const float band[STLQF_ROWS][3], const float *col, float *out)
 {
-    for (uint8_t i = 0; i < STLQF_ROWS; i++) {
-        float s = 0.0f;
-        for (uint8_t d = 0; d < 3u && i + d < STLQF_ROWS; d++) {
-            s += band[i][d] * col[i + d];
-        }
-        out[i] = s;
+    for (uint8_t i = 0; i + 2u < STLQF_ROWS; i++) {
+        out[i] = band[i][0] * col[i] + band[i][1] * col[i + 1u] + band[i][2] * col[i + 2u];
     }
+    out[STLQF_ROWS - 2u] = band[STLQF_ROWS - 2u][0] * col[STLQF_ROWS - 2u] +
+                           band[STLQF_ROWS - 2u][1] * col[STLQF_ROWS - 1u];
+    out[STLQF_ROWS - 1u] = band[STLQF_ROWS - 1u][0] * col[STLQF_ROWS - 1u];
 }
 
 static void stlqf_reset(void *state)
@@ -153,13 +152,13 @@ static void push(stlqf_state_t *s, const float *x)
 }
 
 /* The window's θ: G = Xᵀ X and U = Xᵀ R ζ, Jacobi-scaled, (G_s + μ I) y = U_s + μ y_prior. */
+typedef char stlqf_rows_are_nine[STLQF_ROWS == 9u ? 1 : -1]; /* dot() is written out */
+
 static float dot(const float *a, const float *b)
 {
-    float sum = 0.0f;
-    for (uint8_t i = 0; i < STLQF_ROWS; i++) {
-        sum += a[i] * b[i];
-    }
-    return sum;
+    /* Written out: the AVR spends a tenth of each multiply-add on a loop's upkeep. */
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3] + a[4] * b[4] + a[5] * b[5] +
+           a[6] * b[6] + a[7] * b[7] + a[8] * b[8];
 }
 
 static uint8_t solve(stlqf_state_t *s, float *cond)
@@ -188,27 +187,32 @@ static uint8_t solve(stlqf_state_t *s, float *cond)
     g[4 * 6 + 4] = s->g_gg[0];
     g[5 * 6 + 4] = s->g_gg[1];
     g[5 * 6 + 5] = s->g_gg[2];
-    float d[6];
+    /* (D G D + μ I) y = D U + μ y_prior with D = diag(G)^-1/2 and θ = D y is, multiplied
+     * out, (G + μ diag G) θ = U + μ diag(G) θ_prior: the Jacobi-scaled system without
+     * the scaling (Cholesky's rounding does not depend on it), ~12 k cycles saved. */
+    float scale[6];
     for (uint8_t a = 0; a < 6u; a++) {
         float gaa = g[a * 6u + a];
-        d[a] = gaa > 0.0f ? 1.0f / sqrtf(gaa) : 1.0f;
-    }
-    for (uint8_t a = 0; a < 6u; a++) {
-        for (uint8_t b = 0; b <= a; b++) {
-            g[a * 6u + b] *= d[a] * d[b];
-        }
-        g[a * 6u + a] += s->mu;
+        scale[a] = gaa > 0.0f ? gaa : 1.0f; /* a column of zeros (standing still) */
         /* The prior: a value where the last window's line puts it one sample later,
          * a slope zero. */
         float prior = (a & 1u) ? s->theta[a] + s->theta[a - 1u] : 0.0f;
-        rhs[a] = d[a] * rhs[a] + s->mu * prior / d[a];
+        float pull = s->mu * scale[a];
+        g[a * 6u + a] += pull;
+        rhs[a] += pull * prior;
     }
     if (!chol_solve_f32(g, rhs, 6, cond)) {
         return STATUS_SINGULAR;
     }
+    /* The condition estimate of the scaled matrix: its pivots are L_ii² / G_ii. */
+    float lo = 0.0f, hi = 0.0f;
     for (uint8_t a = 0; a < 6u; a++) {
-        s->theta[a] = d[a] * rhs[a];
+        float pivot = g[a * 6u + a] * g[a * 6u + a] / scale[a];
+        lo = (a == 0u || pivot < lo) ? pivot : lo;
+        hi = (a == 0u || pivot > hi) ? pivot : hi;
+        s->theta[a] = rhs[a];
     }
+    *cond = hi / lo;
     return *cond > s->cond_flag ? STATUS_ILL_CONDITIONED : 0u;
 }
 
