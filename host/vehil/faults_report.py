@@ -116,6 +116,7 @@ def resumed_run(board: str, scenario_name: str = "mixed", duration: float = 20.0
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m vehil.faults_report", description=__doc__)
     parser.add_argument("--board", default="simavr")
+    parser.add_argument("--samples", type=int, default=2000, help="SAMPLEs streamed per point")
     args = parser.parse_args(argv)
     console = Console()
     t = Table(title=f"{args.board}: link faults (per byte, both directions)")
@@ -136,7 +137,7 @@ def main(argv: list[str] | None = None) -> int:
     wrong_total = 0
     for kind in CLASSES:
         for rate in RATES:
-            r = measure(args.board, kind, rate)
+            r = measure(args.board, kind, rate, samples=args.samples)
             wrong_total += r["wrong"]
             t.add_row(
                 kind,
