@@ -213,8 +213,8 @@ def _finish_run(run, out_dir: Path | None, title: str) -> int:  # noqa: ANN001
     )
     for r in run.resumes:
         console.print(
-            f"[yellow]board reset before sample {r.at_sample:,}[/] ({r.reason}): it caught up "
-            f"on the samples before and the run went on after {r.recovery_s * 1e3:.0f} ms"
+            f"[yellow]{r.reason}[/]: before sample {r.at_sample:,} it caught up on the samples "
+            f"before (each answer checked) and the run went on after {r.recovery_s * 1e3:.0f} ms"
         )
     folder = out_dir or (run.recording.parent if run.recording else None)
     if folder is not None:
