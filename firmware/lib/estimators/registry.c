@@ -5,6 +5,8 @@
 #include "estimators/acc_kf.h"
 #include "estimators/eso.h"
 #include "estimators/estimator.h"
+#include "estimators/ev_ekf.h"
+#include "estimators/ev_ukf.h"
 #include "estimators/kfui.h"
 #include "estimators/manf.h"
 #include "estimators/passthrough.h"
@@ -21,6 +23,8 @@ static union {
     kfui_state_t kfui;
     stlqf_state_t stlqf;
     rls_state_t rls;
+    ev_ekf_state_t ev_ekf;
+    ev_ukf_state_t ev_ukf;
 } state;
 
 static const estimator_t *const registry[] = {
@@ -32,6 +36,8 @@ static const estimator_t *const registry[] = {
     &kfui_estimator,
     &stlqf_estimator,
     &rls_estimator,
+    &ev_ekf_estimator,
+    &ev_ukf_estimator,
 };
 
 uint8_t estimator_count(void) { return (uint8_t)(sizeof registry / sizeof registry[0]); }
