@@ -104,6 +104,8 @@ def test_ctrl_c_stops_a_run_cleanly_and_keeps_what_was_recorded(tmp_path, built)
         ("paper-dither", "simavr", 15.0),
         ("rls-flat-steps", "simavr", 20.0),
         ("mass-step", "qemu", 3.0),
+        ("s1-dlc80-ekf", "simavr", 0.3),
+        ("s5-dlc100-low-mu-ukf", "simavr", 0.3),
     ],
 )
 def test_estimators_on_the_chip_match_their_references(run_scenario, name, board, duration) -> None:  # noqa: ANN001, E501

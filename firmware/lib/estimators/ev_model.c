@@ -203,11 +203,27 @@ void ev_jacobians(const ev_model_t *m, const float *x, const ev_inputs_t *u, flo
         float cd = cd_of(u, i), sd = sd_of(u, i);
         const float L[3] = {cd, sd, -byw[i] * cd + lx[i] * sd};
         uint8_t c = (uint8_t)(3u + i);
+        /* ∂α/∂V, α = -atan(v_iy / max(|v_ix|, 0.5)) */
+        float vix = w.vix[i], avix = fabsf(vix), sgn = vix > 0.0f ? 1.0f : (vix < 0.0f ? -1.0f : 0.0f);
+        float vX = x[0] - byw[i] * x[2], vY = x[1] + lx[i] * x[2];
+        float viy = -sd * vX + cd * vY;
+        float den = fmaxf_(avix, 0.5f), zz = viy / den;
+        const float dviy[3] = {-sd, cd, sd * byw[i] + cd * lx[i]};
+        float dalpha[3];
+        for (uint8_t j = 0; j < 3u; j++) {
+            float dden = avix > 0.5f ? sgn * L[j] : 0.0f;
+            dalpha[j] = -(dviy[j] / den - viy / (den * den) * dden) / (1.0f + zz * zz);
+        }
+        /* κ̂ = F_x / (G_xα(α) k): dκ̂/dα = -κ̂ G_xα' / G_xα */
+        float a = w.alpha[i], k = w.kappa[i];
+        float ba = BY * a, bxa = BXA * a, bk = BYK * k;
+        float t_xa = CXA * atanf(bxa);
+        float dk = k * sinf(t_xa) * CXA * BXA / (1.0f + bxa * bxa) / cosf(t_xa);
         if (H != NULL) {
             H[c] = -sd / M_VEH;
             H[EV_NX + c] = cd / M_VEH;
             for (uint8_t j = 0; j < 3u; j++) {
-                H[c * EV_NX + j] = L[j] * (1.0f + w.kappa[i]) / R_W;
+                H[c * EV_NX + j] = (L[j] * (1.0f + k) + vix * dk * dalpha[j]) / R_W;
             }
         }
         if (F == NULL) {
@@ -216,20 +232,16 @@ void ev_jacobians(const ev_model_t *m, const float *x, const ev_inputs_t *u, flo
         F[c] = -sd / M_VEH;
         F[EV_NX + c] = cd / M_VEH;
         F[2 * EV_NX + c] = (lx[i] * cd + byw[i] * sd) / I_Z;
-        /* Row of F̃_iy: ∂/∂V of |v_ix|/σ (G F_y0(α) - F̃), α = -atan(v_iy / max(|v_ix|, 0.5)). */
-        float vix = w.vix[i], avix = fabsf(vix), sgn = vix > 0.0f ? 1.0f : (vix < 0.0f ? -1.0f : 0.0f);
-        float vX = x[0] - byw[i] * x[2], vY = x[1] + lx[i] * x[2];
-        float viy = -sd * vX + cd * vY;
-        float den = fmaxf_(avix, 0.5f), zz = viy / den;
-        const float dviy[3] = {-sd, cd, sd * byw[i] + cd * lx[i]};
-        float ba = BY * w.alpha[i];
-        float g_yk = cosf(CYK * atanf(BYK * w.kappa[i]));
-        float df0 = m->mu * u->fz[i] * CY * BY * cosf(CY * atanf(ba)) / (1.0f + ba * ba);
+        /* Row of F̃_iy: ∂/∂V of |v_ix|/σ (G_yκ(κ̂) F_y0(α) - F̃). */
+        float dmax = m->mu * u->fz[i];
+        float t_y = CY * atanf(ba), t_k = CYK * atanf(bk);
+        float f0 = dmax * sinf(t_y);
+        float df0 = dmax * CY * BY * cosf(t_y) / (1.0f + ba * ba);
+        float dg_yk = -sinf(t_k) * CYK * BYK / (1.0f + bk * bk);
+        float dqs = cosf(t_k) * df0 + f0 * dg_yk * dk;
         float q = w.fy_qs[i] - x[c];
         for (uint8_t j = 0; j < 3u; j++) {
-            float dden = avix > 0.5f ? sgn * L[j] : 0.0f;
-            float dalpha = -(dviy[j] / den - viy / (den * den) * dden) / (1.0f + zz * zz);
-            F[c * EV_NX + j] = (sgn * L[j] * q + avix * g_yk * df0 * dalpha) / SIGMA;
+            F[c * EV_NX + j] = (sgn * L[j] * q + avix * dqs * dalpha[j]) / SIGMA;
         }
         F[c * EV_NX + c] = -avix / SIGMA;
     }

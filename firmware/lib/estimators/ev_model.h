@@ -61,7 +61,7 @@ void ev_wheels(const float *x, const ev_inputs_t *u, float mu, ev_wheels_t *w);
 /* x + T ẋ, in place. */
 void ev_step(const ev_model_t *m, float *x, const ev_inputs_t *u);
 void ev_h(const ev_model_t *m, const float *x, const ev_inputs_t *u, float *y);
-/* F = I + T ∂f/∂x and H = ∂h/∂x (κ̂ held constant, as on the host); either may be NULL. */
+/* F = I + T ∂f/∂x and H = ∂h/∂x, analytic as on the host; either may be NULL. */
 void ev_jacobians(const ev_model_t *m, const float *x, const ev_inputs_t *u, float *F, float *H);
 /* diag R, fixed or by (66)-(69) with κ̂ at x. */
 void ev_noise(const ev_model_t *m, const float *x, const ev_inputs_t *u, float *r);

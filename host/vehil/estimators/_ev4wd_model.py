@@ -275,20 +275,21 @@ def _resist_slope(vx: float) -> float:
 
 
 def jacobians(x: np.ndarray, u: Inputs, mu: float, T: float) -> tuple[np.ndarray, np.ndarray]:
-    """F = I + T ∂f/∂x and H = ∂h/∂x at one state, analytic. κ̂ (and so G_yκ) is held
-    constant: it depends on the state only through G_xα(α), which is ~1 in the linear
-    range where (28) holds. E_y = 0, so dF_y0/dα = D C B cos(C atan(Bα)) / (1 + (Bα)²)."""
+    """F = I + T ∂f/∂x and H = ∂h/∂x at one state, analytic, with κ̂'s dependence on α
+    through G_xα (28). E_y = 0, so dF_y0/dα = D C B cos(C atan(Bα)) / (1 + (Bα)²)."""
     vx, vy, r = x[:3]
     d = u.delta * STEERED
     cd, sd = np.cos(d), np.sin(d)
     w = wheels(x, u, mu)
     J = np.zeros((N_X, N_X))
-    J[0, 0] = -_resist_slope(vx) / M
+    H = np.zeros((N_Y, N_X))
+    J[0, 0] = H[0, 0] = -_resist_slope(vx) / M
     J[0, 1], J[0, 2] = r, vy
     J[1, 0], J[1, 2] = -r, -vx
-    J[0, 3:] = -sd / M
-    J[1, 3:] = cd / M
+    J[0, 3:] = H[0, 3:] = -sd / M
+    J[1, 3:] = H[1, 3:] = cd / M
     J[2, 3:] = (LX * cd + BYW * sd) / I_Z
+    H[2, 2] = 1.0
     vX, vY = vx - BYW * r, vy + LX * r
     viy = -sd * vX + cd * vY
     den = np.maximum(np.abs(w.vix), 0.5)
@@ -299,21 +300,19 @@ def jacobians(x: np.ndarray, u: Inputs, mu: float, T: float) -> tuple[np.ndarray
         dden = sgn[i] * L if abs(w.vix[i]) > 0.5 else np.zeros(3)
         zz = viy[i] / den[i]
         dalpha = -(dviy / den[i] - viy[i] / den[i] ** 2 * dden) / (1 + zz * zz)
-        ba = BY * w.alpha[i]
+        a, k = float(w.alpha[i]), float(w.kappa[i])
+        ba, bxa, bk = BY * a, BXA * a, BYK * k
+        # κ̂ = F_x / (G_xα(α) k): dκ̂/dα = -κ̂ G_xα' / G_xα
+        g_xa = math.cos(CXA * math.atan(bxa))
+        dk = k * math.sin(CXA * math.atan(bxa)) * CXA * BXA / (1 + bxa * bxa) / g_xa
         dmax = mu * u.fz[i]
-        g_yk = float(weight(w.kappa[i], BYK, CYK))
+        f0 = dmax * math.sin(CY * math.atan(ba))
         df0 = dmax * CY * BY * math.cos(CY * math.atan(ba)) / (1 + ba * ba)
+        g_yk = math.cos(CYK * math.atan(bk))
+        dg_yk = -math.sin(CYK * math.atan(bk)) * CYK * BYK / (1 + bk * bk)
+        dqs = g_yk * df0 + f0 * dg_yk * dk  # d(G_yκ F_y0)/dα
         q = w.fy_qs[i] - x[3 + i]
-        J[3 + i, :3] = (sgn[i] * L * q + abs(w.vix[i]) * g_yk * df0 * dalpha) / SIGMA
+        J[3 + i, :3] = (sgn[i] * L * q + abs(w.vix[i]) * dqs * dalpha) / SIGMA
         J[3 + i, 3 + i] = -abs(w.vix[i]) / SIGMA
-    F = np.eye(N_X) + T * J
-    H = np.zeros((N_Y, N_X))
-    H[0, 0] = -_resist_slope(vx) / M
-    H[0, 3:] = -sd / M
-    H[1, 3:] = cd / M
-    H[2, 2] = 1.0
-    for i in range(4):
-        H[3 + i, :3] = (
-            np.array([cd[i], sd[i], -BYW[i] * cd[i] + LX[i] * sd[i]]) * (1 + w.kappa[i]) / R_W
-        )
-    return F, H
+        H[3 + i, :3] = (L * (1 + k) + w.vix[i] * dk * dalpha) / R_W
+    return np.eye(N_X) + T * J, H
