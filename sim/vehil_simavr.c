@@ -3,6 +3,13 @@
  * a host program, over a loopback TCP socket or a pseudo-terminal.
  *
  *   vehil-simavr [options] FIRMWARE.elf
+ *   vehil-simavr [options] --bootloader BOOT.hex [--flash-image FILE]
+ *
+ * The second form is a chip with a bootloader and nothing else: flash erased,
+ * BOOT.hex in the boot section, the reset vector on it (BOOTRST).  Whatever
+ * the bootloader writes with SPM is what runs.  Every client that opens the
+ * pty resets the chip, as opening the port resets a Mega (DTR), and the flash
+ * outlives the reset (and the process, with --flash-image).
  *
  * Exactly one line goes to stdout, once the bridge is ready for its client:
  *   vehil-simavr: listening url=socket://127.0.0.1:PORT
@@ -42,6 +49,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/inotify.h>
 #include <sys/ioctl.h>
 #include <sys/prctl.h>
 #include <sys/socket.h>
@@ -88,6 +96,8 @@ static struct {
 	int log_level;
 	unsigned start_delay_ms;
 	const char *elf;
+	const char *bootloader;		/* Intel HEX; NULL: run the ELF */
+	const char *flash_image;	/* with --bootloader: flash kept here */
 } opt = {
 	.transport = DEFAULT_TRANSPORT,
 	.tcp_port = 0,
@@ -206,49 +216,110 @@ static int g_fd_is_socket;
 static pthread_mutex_t rt_lock = PTHREAD_MUTEX_INITIALIZER;
 static pthread_cond_t rt_cond;
 
-static void *reader_thread(void *arg)
+static void wake_paced(void)
 {
-	(void)arg;
-	for (;;) {
-		size_t head = atomic_load_explicit(&rx_head, memory_order_relaxed);
-		size_t tail = atomic_load_explicit(&rx_tail, memory_order_acquire);
-		size_t space = RX_RING_SIZE - (head - tail);
-		if (space == 0) {
-			/* the firmware is not keeping up: stop reading, let the
-			 * kernel buffers and TCP flow control push back */
-			struct timespec ts = { 0, 100000 };
-			nanosleep(&ts, NULL);
-			continue;
-		}
-		size_t idx = head % RX_RING_SIZE;
-		size_t n = RX_RING_SIZE - idx;
-		if (n > space)
-			n = space;
-		struct pollfd pfd = { .fd = g_fd, .events = POLLIN };
-		if (poll(&pfd, 1, -1) < 0 && errno != EINTR)
-			break;
-		ssize_t r = read(g_fd, rx_ring + idx, n);
-		if (r > 0) {
-			atomic_store_explicit(&rx_head, head + (size_t)r, memory_order_release);
-			if (opt.realtime) {
-				pthread_mutex_lock(&rt_lock);
-				pthread_cond_signal(&rt_cond);
-				pthread_mutex_unlock(&rt_lock);
-			}
-			continue;
-		}
-		if (r < 0 && (errno == EINTR || errno == EAGAIN))
-			continue;
-		/* 0: TCP EOF; EIO: pty slave closed; anything else: give up */
-		break;
-	}
-	atomic_store(&g_peer_closed, 1);
-	atomic_store(&g_attention, 1);
-	if (opt.realtime) {
+	if (opt.realtime || opt.bootloader) {	/* the sim loop may be waiting */
 		pthread_mutex_lock(&rt_lock);
 		pthread_cond_signal(&rt_cond);
 		pthread_mutex_unlock(&rt_lock);
 	}
+}
+
+/* Reads what the client sent into the ring: bytes read, 0 if none (or the
+ * ring is full: then after a pause that lets the kernel buffers and TCP flow
+ * control push back), -1 once the client has gone (EOF, EIO) or on error. */
+static ssize_t ring_read(void)
+{
+	size_t head = atomic_load_explicit(&rx_head, memory_order_relaxed);
+	size_t tail = atomic_load_explicit(&rx_tail, memory_order_acquire);
+	size_t space = RX_RING_SIZE - (head - tail);
+	if (space == 0) {
+		struct timespec ts = { 0, 100000 };
+		nanosleep(&ts, NULL);
+		return 0;
+	}
+	size_t idx = head % RX_RING_SIZE;
+	size_t n = RX_RING_SIZE - idx;
+	if (n > space)
+		n = space;
+	ssize_t r = read(g_fd, rx_ring + idx, n);
+	if (r > 0) {
+		atomic_store_explicit(&rx_head, head + (size_t)r, memory_order_release);
+		wake_paced();
+		return r;
+	}
+	if (r < 0 && (errno == EINTR || errno == EAGAIN))
+		return 0;
+	return -1;
+}
+
+static void *reader_thread(void *arg)
+{
+	(void)arg;
+	for (;;) {
+		struct pollfd pfd = { .fd = g_fd, .events = POLLIN };
+		if (poll(&pfd, 1, -1) < 0 && errno != EINTR)
+			break;
+		if (ring_read() < 0)
+			break;
+	}
+	atomic_store(&g_peer_closed, 1);
+	atomic_store(&g_attention, 1);
+	wake_paced();
+	return NULL;
+}
+
+/* Bootloader mode: clients come and go, and each open of the pty resets the
+ * chip, as opening a Mega's port does (DTR).  inotify reports the opens (the
+ * master sees none, and misses a close that a quick reopen follows); the
+ * master's POLLHUP says nobody has the port open, and output is dropped. */
+static int g_inotify = -1;
+static atomic_int g_reset_request;
+static atomic_size_t g_open_mark;	/* rx_head when the port was opened */
+static atomic_int g_attached;		/* someone has the pty open */
+static atomic_int g_client_left;
+
+static void *boot_reader_thread(void *arg)
+{
+	(void)arg;
+	for (;;) {
+		int attached = atomic_load(&g_attached);
+		struct pollfd p[2] = {
+			{ .fd = g_inotify, .events = POLLIN },
+			{ .fd = g_fd, .events = POLLIN },
+		};
+		if (poll(p, attached ? 2 : 1, -1) < 0) {
+			if (errno == EINTR)
+				continue;
+			break;
+		}
+		if (p[0].revents & POLLIN) {
+			/* only IN_OPEN is watched: every event is an open */
+			char ev[4096] __attribute__((aligned(__alignof__(struct inotify_event))));
+			if (read(g_inotify, ev, sizeof ev) > 0) {
+				/* mark first: feed_uart holds what follows until the reset */
+				atomic_store(&g_open_mark, atomic_load(&rx_head));
+				atomic_store(&g_reset_request, 1);
+				atomic_store(&g_attached, 1);
+				atomic_store(&g_attention, 1);
+				wake_paced();
+			}
+			continue;
+		}
+		if (!attached)
+			continue;
+		if ((p[1].revents & POLLIN) && ring_read() >= 0)
+			continue;
+		if (p[1].revents & (POLLIN | POLLHUP | POLLERR)) {
+			atomic_store(&g_attached, 0);
+			atomic_store(&g_client_left, 1);
+			atomic_store(&g_attention, 1);
+			wake_paced();
+		}
+	}
+	diag("lost the pty: %s", strerror(errno));
+	atomic_store(&g_peer_closed, 1);
+	atomic_store(&g_attention, 1);
 	return NULL;
 }
 
@@ -265,6 +336,7 @@ static uint8_t out_buf[1u << 16];
 static size_t out_len;
 static int out_flush_now;
 static avr_cycle_count_t out_last_cycle;
+static avr_cycle_count_t in_last_cycle;	/* last byte fed to the UART */
 
 /* extra VCD signals */
 enum { SIG_TX, SIG_TX_STB, SIG_RX, SIG_RX_STB, SIG_XOFF, SIG_SLEEP, SIG_COUNT };
@@ -283,6 +355,8 @@ static int g_vcd_open;
 static void write_all(const uint8_t *p, size_t n)
 {
 	while (n && !atomic_load(&g_peer_closed) && !atomic_load(&g_stop_signal)) {
+		if (opt.bootloader && !atomic_load(&g_attached))
+			return;		/* nobody has the port open: the bytes go nowhere */
 		ssize_t w = g_fd_is_socket ? send(g_fd, p, n, MSG_NOSIGNAL) : write(g_fd, p, n);
 		if (w > 0) {
 			p += w;
@@ -295,6 +369,8 @@ static void write_all(const uint8_t *p, size_t n)
 			continue;
 		}
 		/* EPIPE, ECONNRESET, EIO (pty closed) ... */
+		if (opt.bootloader)
+			return;		/* the reader sees the hangup; the next client may come */
 		atomic_store(&g_peer_closed, 1);
 		atomic_store(&g_attention, 1);
 		return;
@@ -352,10 +428,13 @@ static void feed_uart(void)
 		return;		/* simavr silently drops bytes while RXEN=0 */
 	size_t tail = atomic_load_explicit(&rx_tail, memory_order_relaxed);
 	size_t head = atomic_load_explicit(&rx_head, memory_order_acquire);
+	if (atomic_load(&g_reset_request))
+		return;		/* a new client's bytes are for the chip after its reset */
 	while (tail != head && !g_uart_xoff) {
 		uint8_t b = rx_ring[tail % RX_RING_SIZE];
 		tail++;
 		avr_raise_irq(g_uart_in, b);
+		in_last_cycle = g_avr->cycle;
 	}
 	atomic_store_explicit(&rx_tail, tail, memory_order_release);
 }
@@ -445,6 +524,166 @@ static int halted_in_dead_loop(avr_t *avr)
 }
 
 /* ------------------------------------------------------------------------ */
+/* bootloader mode: a chip that is programmed through its bootloader */
+
+static avr_flashaddr_t g_boot_start;	/* byte address of the bootloader */
+
+static int hex_digit(char c)
+{
+	if (c >= '0' && c <= '9')
+		return c - '0';
+	if (c >= 'A' && c <= 'F')
+		return c - 'A' + 10;
+	if (c >= 'a' && c <= 'f')
+		return c - 'a' + 10;
+	return -1;
+}
+
+/* Reads an Intel HEX file into mem (records 00, 01, 02, 04; the start
+ * address records 03 and 05 are ignored: the reset vector decides).
+ * simavr's own reader knows no type 02 record, which avr-gcc writes for the
+ * Mega's bootloader.  Returns 0 with the lowest address loaded in *lo, or -1
+ * after saying what is wrong and where. */
+static int load_ihex(const char *path, uint8_t *mem, uint32_t size, uint32_t *lo)
+{
+	FILE *f = fopen(path, "r");
+	if (!f) {
+		diag("cannot load bootloader '%s': %s", path,
+			errno == ENOENT ? "no such file" : strerror(errno));
+		return -1;
+	}
+	char line[1024];
+	uint32_t base = 0;
+	unsigned lineno = 0;
+	int end = 0, loaded = 0;
+	*lo = UINT32_MAX;
+	while (!end && fgets(line, sizeof line, f)) {
+		lineno++;
+		size_t n = strcspn(line, "\r\n");
+		if (n == 0)
+			continue;
+		uint8_t rec[(sizeof line - 1) / 2];
+		size_t len = (n - 1) / 2;
+		unsigned sum = 0;
+		int ok = line[0] == ':' && n >= 11 && (n - 1) % 2 == 0;
+		for (size_t i = 0; ok && i < len; i++) {
+			int h = hex_digit(line[1 + 2 * i]), l = hex_digit(line[2 + 2 * i]);
+			ok = h >= 0 && l >= 0;
+			rec[i] = (uint8_t)(h << 4 | l);
+			sum += rec[i];
+		}
+		if (!ok || rec[0] + 5u != len || (sum & 0xff)) {
+			diag("cannot load bootloader '%s': line %u is not an Intel HEX record "
+				"(or its checksum is wrong)", path, lineno);
+			fclose(f);
+			return -1;
+		}
+		uint32_t addr = base + ((uint32_t)rec[1] << 8 | rec[2]);
+		switch (rec[3]) {
+		case 0:
+			if (addr + rec[0] > size) {
+				diag("cannot load bootloader '%s': line %u writes 0x%05x, past the end "
+					"of the %u bytes of flash", path, lineno, (unsigned)(addr + rec[0] - 1),
+					(unsigned)size);
+				fclose(f);
+				return -1;
+			}
+			memcpy(mem + addr, rec + 4, rec[0]);
+			if (addr < *lo)
+				*lo = addr;
+			loaded = 1;
+			break;
+		case 1:
+			end = 1;
+			break;
+		case 2:		/* extended segment address: bits 4..19 */
+			base = ((uint32_t)rec[4] << 8 | rec[5]) << 4;
+			break;
+		case 4:		/* extended linear address: bits 16..31 */
+			base = ((uint32_t)rec[4] << 8 | rec[5]) << 16;
+			break;
+		case 3:
+		case 5:
+			break;
+		default:
+			diag("cannot load bootloader '%s': line %u has record type %u, not Intel HEX",
+				path, lineno, rec[3]);
+			fclose(f);
+			return -1;
+		}
+	}
+	fclose(f);
+	if (!loaded) {
+		diag("cannot load bootloader '%s': no data records", path);
+		return -1;
+	}
+	return 0;
+}
+
+/* The whole flash as a raw file: what a later run starts from. */
+static int load_flash_image(avr_t *avr, const char *path)
+{
+	FILE *f = fopen(path, "rb");
+	if (!f && errno == ENOENT)
+		return 0;	/* none yet: erased flash */
+	if (!f) {
+		diag("cannot read flash image '%s': %s", path, strerror(errno));
+		return -1;
+	}
+	size_t n = fread(avr->flash, 1, avr->flashend + 1, f);
+	int extra = fgetc(f) != EOF;
+	fclose(f);
+	if (n != avr->flashend + 1 || extra) {
+		diag("flash image '%s' is not %u bytes (the %s's flash); delete it to start erased",
+			path, (unsigned)avr->flashend + 1, opt.mcu);
+		return -1;
+	}
+	return 0;
+}
+
+/* Written to a temporary file and renamed, so a kill mid-write leaves the
+ * previous image, never half of one. */
+static void save_flash_image(avr_t *avr)
+{
+	if (!opt.flash_image)
+		return;
+	char tmp[PATH_MAX];
+	snprintf(tmp, sizeof tmp, "%s.tmp", opt.flash_image);
+	FILE *f = fopen(tmp, "wb");
+	int ok = f && fwrite(avr->flash, 1, avr->flashend + 1, f) == avr->flashend + 1;
+	if (f && fclose(f) != 0)
+		ok = 0;
+	if (!ok || rename(tmp, opt.flash_image) != 0)
+		diag("cannot save the flash to '%s': %s", opt.flash_image, strerror(errno));
+}
+
+/* The bootloader gives up on the host after a timeout: about a second after
+ * a reset (then it starts the application), and again mid-session.
+ * Free-running, a second passes in ~0.08 s of wall time: before avrdude (which
+ * spends 0.1 s pulsing DTR) has said a word, or whenever a loaded host pauses.
+ * So once the CPU has been in the boot section with the line quiet both ways
+ * for 10 ms, simulated time keeps to wall time, and the timeouts last as on a
+ * chip (10 ms longer at most).  Between bytes and pages it runs free:
+ * programming is not slowed down. */
+static int g_boot_paced;
+
+static void boot_pace(avr_t *avr)
+{
+	avr_cycle_count_t last = in_last_cycle > out_last_cycle ? in_last_cycle : out_last_cycle;
+	/* the UART's FIFO accessors are not exported: compare its cursors */
+	int waiting = avr->pc >= g_boot_start && !rx_pending() && out_len == 0
+		&& (!g_uart || g_uart->input.read == g_uart->input.write)
+		&& avr->cycle - last > avr->frequency / 100;
+	if (waiting && !g_boot_paced) {	/* wall time starts now, not at the last pacing */
+		rt_base_ns = mono_ns();
+		rt_base_cycle = avr->cycle;
+	}
+	g_boot_paced = waiting;
+	if (waiting)
+		rt_pace(avr);
+}
+
+/* ------------------------------------------------------------------------ */
 /* setup helpers */
 
 static FILE *g_stdout;		/* the real stdout; fd 1 points at stderr */
@@ -453,8 +692,13 @@ static void usage(FILE *f)
 {
 	fprintf(f,
 "usage: " PROG " [options] FIRMWARE.elf\n"
+"       " PROG " [options] --bootloader BOOT.hex [--flash-image FILE]\n"
 "\n"
 "Runs FIRMWARE.elf in simavr and bridges UART0 to one client.\n"
+"With --bootloader, the chip starts with erased flash and BOOT.hex in its\n"
+"boot section, at the reset vector: it runs what the bootloader writes.\n"
+"Each client that opens the pty resets the chip (a Mega resets when its\n"
+"port is opened); the bridge serves one client after another.\n"
 "Prints one line to stdout when ready for the client:\n"
 "  " PROG ": listening url=/dev/pts/N                (--pty)\n"
 "  " PROG ": listening url=socket://127.0.0.1:PORT   (--tcp)\n"
@@ -473,6 +717,10 @@ static void usage(FILE *f)
 "                     UDR0 (with strobes that toggle per byte), UART0 input\n"
 "                     FIFO full (xoff), CPU sleeping, output pins of each port\n"
 "  --gdb PORT         start simavr's gdb server on PORT and wait for gdb\n"
+"  --bootloader HEX   boot from this Intel HEX bootloader, flash erased\n"
+"  --flash-image FILE with --bootloader: start from this raw flash image if it\n"
+"                     exists, and write the flash to it when a client leaves\n"
+"                     and at exit\n"
 "  --start-delay MS   after a TCP client connects, wait MS before starting the\n"
 "                     CPU (pyserial's open() discards input that arrives while\n"
 "                     it opens); with --pty, start as soon as the client has\n"
@@ -502,7 +750,7 @@ static int parse_u64(const char *s, uint64_t *v)
 
 static void parse_args(int argc, char **argv)
 {
-	enum { O_TCP = 256, O_PTY, O_MCU, O_FREQ, O_RT, O_LIMIT, O_VCD, O_GDB, O_DELAY };
+	enum { O_TCP = 256, O_PTY, O_MCU, O_FREQ, O_RT, O_LIMIT, O_VCD, O_GDB, O_DELAY, O_BOOT, O_IMAGE };
 	static const struct option lo[] = {
 		{ "tcp", required_argument, NULL, O_TCP },
 		{ "pty", no_argument, NULL, O_PTY },
@@ -513,6 +761,8 @@ static void parse_args(int argc, char **argv)
 		{ "vcd", required_argument, NULL, O_VCD },
 		{ "gdb", required_argument, NULL, O_GDB },
 		{ "start-delay", required_argument, NULL, O_DELAY },
+		{ "bootloader", required_argument, NULL, O_BOOT },
+		{ "flash-image", required_argument, NULL, O_IMAGE },
 		{ "verbose", no_argument, NULL, 'v' },
 		{ "quiet", no_argument, NULL, 'q' },
 		{ "help", no_argument, NULL, 'h' },
@@ -573,6 +823,12 @@ static void parse_args(int argc, char **argv)
 			}
 			opt.start_delay_ms = (unsigned)v;
 			break;
+		case O_BOOT:
+			opt.bootloader = optarg;
+			break;
+		case O_IMAGE:
+			opt.flash_image = optarg;
+			break;
 		case 'v':
 			if (opt.log_level < LOG_DEBUG)
 				opt.log_level++;
@@ -597,12 +853,24 @@ static void parse_args(int argc, char **argv)
 		diag("give only one of --tcp and --pty");
 		exit(EXIT_USAGE);
 	}
-	if (optind != argc - 1) {
-		diag(optind >= argc ? "missing FIRMWARE.elf" : "too many arguments");
+	if (opt.flash_image && !opt.bootloader) {
+		diag("--flash-image needs --bootloader");
+		exit(EXIT_USAGE);
+	}
+	if (opt.bootloader && opt.transport != TR_PTY) {
+		/* a new client must reset the chip: only the pty shows who opens it */
+		diag("--bootloader serves a pty only, not --tcp");
+		exit(EXIT_USAGE);
+	}
+	int want = opt.bootloader ? 0 : 1;
+	if (argc - optind != want) {
+		diag(opt.bootloader ? "--bootloader runs no FIRMWARE.elf: drop it"
+			: optind >= argc ? "missing FIRMWARE.elf" : "too many arguments");
 		usage(stderr);
 		exit(EXIT_USAGE);
 	}
-	opt.elf = argv[optind];
+	if (!opt.bootloader)
+		opt.elf = argv[optind];
 }
 
 /* Checks that the file exists and is a 32-bit AVR ELF before handing it to
@@ -872,12 +1140,74 @@ static void finish(int code)
 		if (w < (ssize_t)out_len)
 			diag("could not pass on %zu byte(s) of firmware output", out_len - (w > 0 ? (size_t)w : 0));
 	}
+	if (opt.bootloader && g_avr && g_avr->flash)	/* NULL after simavr's cpu_Done */
+		save_flash_image(g_avr);
 	if (g_vcd_open) {
 		avr_vcd_stop(&g_vcd);
 		avr_vcd_close(&g_vcd);
 	}
 	fflush(stderr);
 	exit(code);
+}
+
+/* Bootloader mode: flash image (if any), then the bootloader over it, and
+ * the reset vector on the bootloader, as the BOOTRST fuse does. */
+static int setup_boot_chip(avr_t *avr)
+{
+	if (opt.flash_image && load_flash_image(avr, opt.flash_image) != 0)
+		return -1;
+	uint32_t lo;
+	if (load_ihex(opt.bootloader, avr->flash, avr->flashend + 1, &lo) != 0)
+		return -1;
+	if (lo == 0) {
+		diag("'%s' starts at address 0: an application, not a bootloader", opt.bootloader);
+		return -1;
+	}
+	g_boot_start = lo;
+	avr->reset_pc = lo;
+	avr->pc = lo;
+	return 0;
+}
+
+/* The reader thread; signals stay with the main thread. */
+static void start_reader(pthread_t *th)
+{
+	sigset_t all, old;
+	sigfillset(&all);
+	pthread_sigmask(SIG_BLOCK, &all, &old);
+	if (pthread_create(th, NULL, opt.bootloader ? boot_reader_thread : reader_thread, NULL) != 0) {
+		diag("cannot start the reader thread");
+		finish(EXIT_SETUP);
+	}
+	pthread_sigmask(SIG_SETMASK, &old, NULL);
+}
+
+/* Bootloader mode: a client opened the pty.  Reset the chip into its
+ * bootloader, keep the flash (and save it: the last client is done), and
+ * drop input the previous client left behind. */
+static void reset_chip(avr_t *avr)
+{
+	atomic_store(&g_reset_request, 0);
+	size_t mark = atomic_load(&g_open_mark);
+	save_flash_image(avr);
+	avr_reset(avr);
+	avr->pc = g_boot_start;
+	g_uart_xoff = 0;
+	out_len = 0;
+	out_flush_now = 0;
+	atomic_store(&rx_tail, mark);
+}
+
+/* Bootloader mode: opens of the pty slave, seen from the first one on. */
+static void watch_pty_opens(const char *ptyname)
+{
+	g_inotify = inotify_init1(IN_CLOEXEC);
+	if (g_inotify < 0 || inotify_add_watch(g_inotify, ptyname, IN_OPEN) < 0) {
+		diag("cannot watch %s for opens (inotify): %s", ptyname, strerror(errno));
+		exit(EXIT_SETUP);
+	}
+	int zero = 0;
+	ioctl(g_fd, TIOCPKT, &zero);	/* no start-up handshake: the open is the reset */
 }
 
 /* ------------------------------------------------------------------------ */
@@ -908,19 +1238,21 @@ int main(int argc, char **argv)
 	sigaction(SIGTERM, &sa, NULL);
 
 	/* firmware + core */
-	check_elf_file(opt.elf);
 	elf_firmware_t fw;
 	memset(&fw, 0, sizeof fw);
-	if (elf_read_firmware(opt.elf, &fw) != 0) {
-		diag("cannot load firmware '%s': simavr could not read the ELF", opt.elf);
-		return EXIT_SETUP;
+	if (opt.elf) {
+		check_elf_file(opt.elf);
+		if (elf_read_firmware(opt.elf, &fw) != 0) {
+			diag("cannot load firmware '%s': simavr could not read the ELF", opt.elf);
+			return EXIT_SETUP;
+		}
+		if (fw.flashsize == 0) {
+			diag("cannot load firmware '%s': no code (.text) in the ELF", opt.elf);
+			return EXIT_SETUP;
+		}
+		if (fw.mmcu[0] && strcmp(fw.mmcu, opt.mcu) != 0)
+			diag("warning: '%s' says it is for %s, simulating %s", opt.elf, fw.mmcu, opt.mcu);
 	}
-	if (fw.flashsize == 0) {
-		diag("cannot load firmware '%s': no code (.text) in the ELF", opt.elf);
-		return EXIT_SETUP;
-	}
-	if (fw.mmcu[0] && strcmp(fw.mmcu, opt.mcu) != 0)
-		diag("warning: '%s' says it is for %s, simulating %s", opt.elf, fw.mmcu, opt.mcu);
 
 	avr_t *avr = avr_make_mcu_by_name(opt.mcu);
 	if (!avr) {
@@ -930,14 +1262,19 @@ int main(int argc, char **argv)
 	g_avr = avr;
 	avr_init(avr);
 	avr->log = (uint8_t)opt.log_level;
-	if ((uint64_t)fw.flashbase + fw.flashsize > (uint64_t)avr->flashend + 1) {
-		diag("cannot load firmware '%s': %u bytes of code do not fit the %s's %u bytes of flash",
-			opt.elf, (unsigned)fw.flashsize, opt.mcu, (unsigned)avr->flashend + 1);
-		return EXIT_SETUP;
+	if (opt.bootloader) {
+		if (setup_boot_chip(avr) != 0)
+			return EXIT_SETUP;
+	} else {
+		if ((uint64_t)fw.flashbase + fw.flashsize > (uint64_t)avr->flashend + 1) {
+			diag("cannot load firmware '%s': %u bytes of code do not fit the %s's %u bytes of flash",
+				opt.elf, (unsigned)fw.flashsize, opt.mcu, (unsigned)avr->flashend + 1);
+			return EXIT_SETUP;
+		}
+		fw.frequency = opt.freq;
+		avr->frequency = opt.freq;
+		avr_load_firmware(avr, &fw);
 	}
-	fw.frequency = opt.freq;
-	avr->frequency = opt.freq;
-	avr_load_firmware(avr, &fw);
 	avr->frequency = opt.freq;
 
 	/* UART0: no usleep() on RX polls, no stdio line echo; our own pump */
@@ -981,6 +1318,8 @@ int main(int argc, char **argv)
 		fprintf(url_out, PROG ": listening url=socket://127.0.0.1:%d\n", port);
 	} else {
 		g_fd = open_pty(ptyname, sizeof ptyname);
+		if (opt.bootloader)
+			watch_pty_opens(ptyname);
 		fprintf(url_out, PROG ": listening url=%s\n", ptyname);
 	}
 	fflush(url_out);
@@ -995,7 +1334,7 @@ int main(int argc, char **argv)
 		 * whatever has arrived (reset_input_buffer): give it time */
 		if (g_fd >= 0 && sleep_ms_unless_signal(opt.start_delay_ms) != 0)
 			g_fd = -1;
-	} else if (wait_pty_client(g_fd, opt.start_delay_ms) != 0) {
+	} else if (!opt.bootloader && wait_pty_client(g_fd, opt.start_delay_ms) != 0) {
 		g_fd = -1;
 	}
 	if (g_fd < 0) {
@@ -1006,20 +1345,12 @@ int main(int argc, char **argv)
 	/* non-blocking: a blocked write must not outlive SIGTERM */
 	fcntl(g_fd, F_SETFL, fcntl(g_fd, F_GETFL) | O_NONBLOCK);
 
-	/* reader thread: signals stay with the main thread */
 	pthread_condattr_t ca;
 	pthread_condattr_init(&ca);
 	pthread_condattr_setclock(&ca, CLOCK_MONOTONIC);
 	pthread_cond_init(&rt_cond, &ca);
-	sigset_t all, old;
-	sigfillset(&all);
-	pthread_sigmask(SIG_BLOCK, &all, &old);
 	pthread_t th;
-	if (pthread_create(&th, NULL, reader_thread, NULL) != 0) {
-		diag("cannot start the reader thread");
-		return EXIT_SETUP;
-	}
-	pthread_sigmask(SIG_SETMASK, &old, NULL);
+	start_reader(&th);
 
 	/* sim loop */
 	const avr_cycle_count_t period = avr->frequency / 10000 ? avr->frequency / 10000 : 1; /* 100 us */
@@ -1061,6 +1392,10 @@ int main(int argc, char **argv)
 					"executing outside the firmware's code (PC=0x%05x, code ends at 0x%05x)",
 					(unsigned)avr->pc, (unsigned)code_end);
 			}
+			if (atomic_load(&g_reset_request))
+				reset_chip(avr);
+			if (atomic_exchange(&g_client_left, 0))
+				save_flash_image(avr);
 			int sig = atomic_load(&g_stop_signal);
 			if (sig) {
 				diag("stopped by signal %d after %llu cycles", sig, (unsigned long long)avr->cycle);
@@ -1119,6 +1454,8 @@ int main(int argc, char **argv)
 			}
 			if (opt.realtime && avr->state != cpu_Stopped)
 				rt_pace(avr);
+			else if (opt.bootloader && avr->state != cpu_Stopped)
+				boot_pace(avr);
 			next_check = avr->cycle + period < limit ? avr->cycle + period : limit;
 		}
 	}

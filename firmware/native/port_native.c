@@ -60,6 +60,8 @@ static void boot(uint8_t cause)
 }
 
 void port_reboot(void) { boot(RESET_CAUSE_SOFTWARE); }
+/* The host build has no watchdog to wait for: it resets as one would. */
+void port_hang(void) { boot(RESET_CAUSE_WATCHDOG); }
 
 /* The library's entry points, called by host/vehil/transports/protocol_native.py. */
 

@@ -104,6 +104,14 @@ uint16_t port_stack_unused(void)
 uint16_t port_boot_count(void) { return boot_count; }
 uint8_t port_reset_cause(void) { return reset_cause; }
 
+void port_hang(void)
+{
+    cli();
+    for (;;) {
+        __asm__ __volatile__("" ::: "memory");
+    }
+}
+
 void port_reboot(void)
 {
     reboot_requested = 1;

@@ -116,6 +116,37 @@ def cmd_info(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_flash(args: argparse.Namespace) -> int:
+    from vehil import flash
+    from vehil.boards.serialport import SerialBoard, ports_seen
+    from vehil.errors import NoPort
+
+    if args.port:
+        board: Board = SerialBoard(args.port, timeout_s=args.timeout)
+    elif args.board:
+        board = make_board(args.board, timeout_s=args.timeout)
+    else:
+        raise NoPort(
+            f"give the board's port (--port /dev/ttyACM0; ports seen: {ports_seen()}) "
+            "or --board simavr-bootloader"
+        )
+    if args.image:
+        image = Path(args.image)
+        if image.suffix == ".elf":
+            image = flash.to_hex(image, flash.FLASH_DIR / f"{image.stem}.hex")
+    else:
+        image = flash.firmware_hex(args.env)
+    with flash.flashed(board, image, baud=args.baud) as (result, link):
+        console.print(
+            f"[green]flashed[/] {result.image} to {result.port}: {result.bytes:,} B written "
+            f"in {result.write_s:.2f} s, verified in {result.verify_s:.2f} s "
+            f"(avrdude {result.seconds:.2f} s in all)"
+        )
+        assert link.info is not None
+        console.print(info_table(board.name, link.info))
+    return 0
+
+
 def cmd_ping(args: argparse.Namespace) -> int:
     with _connect(args) as link:
         _maybe_switch_baud(link, args.baud)
@@ -180,6 +211,11 @@ def _finish_run(run, out_dir: Path | None, title: str) -> int:  # noqa: ANN001
         f"{', closed loop' if sc.closed_loop else ''}); "
         f"{run.ended}"
     )
+    for r in run.resumes:
+        console.print(
+            f"[yellow]board reset before sample {r.at_sample:,}[/] ({r.reason}): it caught up "
+            f"on the samples before and the run went on after {r.recovery_s * 1e3:.0f} ms"
+        )
     folder = out_dir or (run.recording.parent if run.recording else None)
     if folder is not None:
         context = {
@@ -193,6 +229,10 @@ def _finish_run(run, out_dir: Path | None, title: str) -> int:  # noqa: ANN001
             "wall_s": round(run.wall_s, 3),
             "samples_per_s": round(rate, 1),
             "recording": str(run.recording) if run.recording else None,
+            "board_resets": [
+                {"at_sample": r.at_sample, "recovery_s": round(r.recovery_s, 3)}
+                for r in run.resumes
+            ],
         }
         md = report.write(series, figures, context, folder)
         console.print(f"recording {run.recording}\nreport    {md}")
@@ -402,6 +442,25 @@ def main(argv: Sequence[str] | None = None) -> int:
     p = sub.add_parser("info", help="connect to a board and show what it reports")
     _add_board_options(p)
     p.set_defaults(func=cmd_info)
+
+    p = sub.add_parser(
+        "flash", help="program a Mega 2560 through its bootloader (avrdude), then show INFO"
+    )
+    where = p.add_mutually_exclusive_group()
+    where.add_argument("--port", help="a real board's serial port, e.g. /dev/ttyACM0")
+    where.add_argument("--board", help="simavr-bootloader (or a port)")
+    p.add_argument(
+        "--env",
+        default="offline",
+        choices=("offline", "megaatmega2560"),
+        help="PlatformIO env to build the image with (default offline)",
+    )
+    p.add_argument("--image", help="flash this Intel HEX (or ELF) instead of building one")
+    p.add_argument(
+        "--baud", type=int, default=115200, help="the bootloader's baud rate (the Mega's: 115200)"
+    )
+    p.add_argument("--timeout", type=float, default=2.0, help="seconds to wait for each reply")
+    p.set_defaults(func=cmd_flash)
 
     p = sub.add_parser("ping", help="measure PING round trips")
     _add_board_options(p)

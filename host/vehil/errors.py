@@ -43,3 +43,46 @@ class BoardError(VehilError):
 
 class BuildError(VehilError):
     """A build step (compiler, PlatformIO, make) failed."""
+
+
+class NoPort(BoardStartError):
+    """No serial port of that name (or none given)."""
+
+
+class PortBusy(BoardStartError):
+    """Another program has the serial port open."""
+
+
+class FlashError(VehilError):
+    """avrdude could not program the board, or the board does not hold the image."""
+
+
+class AvrdudeMissing(FlashError):
+    """avrdude is not installed."""
+
+
+class UnsupportedBaud(FlashError):
+    """The bootloader does not talk at that baud rate."""
+
+
+class NoBootloader(FlashError):
+    """avrdude got no answer from the bootloader."""
+
+
+class WrongSignature(FlashError):
+    """The chip is not the part avrdude was told to program."""
+
+    def __init__(self, message: str, expected: str, got: str):
+        super().__init__(message)
+        self.expected = expected
+        self.got = got
+
+
+class VerifyMismatch(FlashError):
+    """The flash read back differs from the image."""
+
+    def __init__(self, message: str, address: int, expected: int, got: int):
+        super().__init__(message)
+        self.address = address
+        self.expected = expected
+        self.got = got

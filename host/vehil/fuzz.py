@@ -96,7 +96,7 @@ def seed_corpus(directory: Path, seed: int = 0) -> int:
             conv = _frame("CONFIG", 1, estimator=spec.c_id, mode=SCHEMA.mode[mode], params=params)
             for k in range(4):
                 u = [rng.uniform(-50, 50) for _ in spec.inputs] or [1.0]
-                conv += _frame("SAMPLE", 2 + k, inputs=spec.encode_inputs(u, mode))
+                conv += _frame("SAMPLE", 2 + k, index=k, inputs=spec.encode_inputs(u, mode))
             files[f"{name}-{mode.lower()}"] = conv
     for name, data in files.items():
         (directory / name).write_bytes(data)

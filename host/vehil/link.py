@@ -26,10 +26,27 @@ _RESET_CAUSES = {v: k for k, v in SCHEMA.reset_cause.items()}
 # Seq 0 is reserved for frames the board sends on its own (boot INFO, link errors).
 _FIRST_SEQ = 1
 MAX_FRAMES_IN_FLIGHT = 32
-# Sending these twice leaves the board as sending them once (CONFIG resets the estimator).
-_IDEMPOTENT = frozenset({"HELLO", "PING", "GET_STATS", "GET_ESTIMATOR", "CONFIG"})
-_RETRY_BACKOFF_S = 0.01
+# Sending these twice leaves the board as sending them once: CONFIG resets the estimator,
+# and a SAMPLE's index makes the board answer a repeat from its RESULT cache.
+_RETRYABLE = frozenset({"HELLO", "PING", "GET_STATS", "GET_ESTIMATOR", "CONFIG", "SAMPLE"})
+_RETRY_BACKOFF_S = (0.01, 0.2)  # first wait, longest wait
 _READ_SLICE_S = 0.02
+
+
+@dataclass
+class _Pending:
+    """A request in flight: sent again with a new seq when it or its reply is lost."""
+
+    name: str
+    body: bytes
+    seq: int = 0
+    wire_bytes: int = 0
+    sent_at: float = 0.0
+
+    def describe(self) -> str:
+        if self.name == "SAMPLE":  # its index leads the body
+            return f"SAMPLE seq {self.seq} (sample {int.from_bytes(self.body[:2], 'little')})"
+        return f"{self.name} seq {self.seq}"
 
 
 @dataclass(frozen=True)
@@ -126,9 +143,11 @@ class Link:
         self._seq = _FIRST_SEQ
         self._inbox: deque[tuple[framing.Frame, float]] = deque()
         self.stale_replies = 0
-        self.retries = 2  # for requests that change nothing on the board
+        self.wrong_type_replies = 0
+        self.retries = 5  # for requests that sending twice does not change
         self.max_frames = MAX_FRAMES_IN_FLIGHT  # a board may ask for fewer (QEMU)
         self.retried = 0
+        self.sample_index = 0  # the next SAMPLE's index: 0 after CONFIG
         # Short reads, set once: changing a real port's timeout reconfigures the tty.
         self.port.timeout = _READ_SLICE_S
 
@@ -202,82 +221,100 @@ class Link:
     ) -> Iterator[Reply]:
         """Sends requests keeping the board's RX buffer from overflowing; yields replies in order.
 
-        Raises BoardError for an ERROR reply, BoardTimeout if a reply does not come,
-        LinkError if a reply is skipped or a frame arrives that answers nothing.
+        A request or reply lost on the way (timeout, or a later reply first) is sent
+        again with everything sent after it (go-back-N), `retries` times with backoff,
+        if all of them are retryable; then BoardTimeout or LinkError names the request.
+        Raises BoardError for an ERROR reply.
         """
         budget = self.info.rx_buffer if self.info else 64
         max_frames = min(window or self.max_frames, self.max_frames)
-        pending: deque[tuple[int, str, bytes, float]] = deque()
+        pending: deque[_Pending] = deque()
         in_flight = 0
         last_reply_at = 0.0
         for name, fields in requests:
-            body = SCHEMA.messages[name].pack(**fields)
-            size = len(framing.encode(0, 0, body))
+            if name == "SAMPLE" and "index" not in fields:
+                fields = {"index": self.sample_index, **fields}
+                self.sample_index = (self.sample_index + 1) & 0xFFFF
+            elif name == "RESET" and fields.get("what") == 0:
+                self.sample_index = 0
+            request = _Pending(name, SCHEMA.messages[name].pack(**fields))
+            size = len(framing.encode(0, 0, request.body))
             while pending and (len(pending) >= max_frames or in_flight + size > budget):
-                reply = self._await(pending.popleft(), pending, last_reply_at)
+                reply = self._next_reply(pending, last_reply_at)
                 in_flight -= reply.request_wire_bytes
                 last_reply_at = reply.sent_at + reply.rtt_s
                 yield reply
-            seq = self._next_seq()
-            wire, sent_at = self._send(name, seq, body)
-            pending.append((seq, name, wire, sent_at))
-            in_flight += len(wire)
+            self._transmit(request)
+            pending.append(request)
+            in_flight += request.wire_bytes
         while pending:
-            reply = self._await(pending.popleft(), pending, last_reply_at)
+            reply = self._next_reply(pending, last_reply_at)
             last_reply_at = reply.sent_at + reply.rtt_s
             yield reply
 
-    def _await(
-        self,
-        request: tuple[int, str, bytes, float],
-        later: deque[tuple[int, str, bytes, float]],
-        last_reply_at: float,
-    ) -> Reply:
-        seq, name, wire, sent_at = request
+    def _transmit(self, request: _Pending) -> None:
+        request.seq = self._next_seq()
+        wire, request.sent_at = self._send(request.name, request.seq, request.body)
+        request.wire_bytes = len(wire)
+
+    def _next_reply(self, pending: deque[_Pending], last_reply_at: float) -> Reply:
+        for attempt in range(self.retries + 1):
+            try:
+                reply = self._await(pending[0], pending, last_reply_at)
+                pending.popleft()
+                return reply
+            except (BoardReset, BoardError):
+                raise
+            except LinkError:
+                if attempt == self.retries or any(p.name not in _RETRYABLE for p in pending):
+                    raise
+            self.retried += 1
+            time.sleep(min(_RETRY_BACKOFF_S[0] * 2**attempt, _RETRY_BACKOFF_S[1]))
+            for p in pending:
+                self._transmit(p)
+            last_reply_at = 0.0
+        raise AssertionError("unreachable")
+
+    def _await(self, request: _Pending, pending: deque[_Pending], last_reply_at: float) -> Reply:
         # Replies come in order: this one's clock starts when the previous one arrived.
-        deadline = max(sent_at, last_reply_at) + self.timeout_s
-        later_seqs = {p[0] for p in later}
+        deadline = max(request.sent_at, last_reply_at) + self.timeout_s
+        later_seqs = {p.seq for p in pending if p is not request}
+        answer = SCHEMA.messages[request.name].reply
         while (got := self._read_frame(deadline)) is not None:
             f, arrived = got
-            if f.seq == seq:
+            if f.seq == request.seq and f.name not in (answer, "ERROR"):
+                # Not an answer to this request: a frame with a borrowed seq (masquerade).
+                self.wrong_type_replies += 1
+                continue
+            if f.seq == request.seq:
                 if f.name == "ERROR":
                     fields = f.fields()
                     raise BoardError(
                         describe_error(fields),
                         _ERROR_NAMES.get(fields["code"], str(fields["code"])),
-                        name,
+                        request.name,
                         fields["detail"],
                     )
-                return Reply(f, name, sent_at, arrived - sent_at, len(wire), f.wire_size)
+                rtt = arrived - request.sent_at
+                return Reply(f, request.name, request.sent_at, rtt, request.wire_bytes, f.wire_size)
             if f.seq == 0:
                 raise self._unsolicited(f)
             if f.seq in later_seqs:
                 raise LinkError(
-                    f"reply to {name} seq {seq} is missing: the reply to seq {f.seq} came first"
+                    f"reply to {request.describe()} is missing: the reply to seq {f.seq} came first"
                 )
-            self.stale_replies += 1  # a reply to a request given up on earlier
+            self.stale_replies += 1  # a reply to a request sent again since
         raise BoardTimeout(
-            f"no reply to {name} seq {seq} within {self.timeout_s:.2f} s "
-            f"({len(later)} more requests in flight, {self.decoder.bad_frames} bad frames seen"
+            f"no reply to {request.describe()} within {self.timeout_s:.2f} s "
+            f"({len(pending) - 1} more requests in flight, "
+            f"{self.decoder.bad_frames} bad frames seen"
             f"{': ' + self.decoder.last_error if self.decoder.last_error else ''})"
         )
 
     def request(self, name: str, **fields: Any) -> Reply:
-        """One request, stop-and-wait. Requests that change nothing on the board are sent
-        again after a lost or broken reply (`retries` times, backing off); the others,
-        a SAMPLE above all, are never repeated behind the caller's back."""
-        attempts = 1 + (self.retries if name in _IDEMPOTENT else 0)
-        for attempt in range(attempts):
-            try:
-                return next(self.pipeline([(name, fields)], window=1))
-            except BoardReset:
-                raise
-            except LinkError:
-                if attempt == attempts - 1:
-                    raise
-                self.retried += 1
-                time.sleep(_RETRY_BACKOFF_S * 2**attempt)
-        raise AssertionError("unreachable")
+        """One request, stop-and-wait; sent again after a loss if it is retryable (a SAMPLE
+        is: the board answers a repeat from its RESULT cache without stepping again)."""
+        return next(self.pipeline([(name, fields)], window=1))
 
     # -- the protocol's verbs --------------------------------------------
 
@@ -300,6 +337,8 @@ class Link:
                 )
             )
         self.info = BoardInfo(fields, tuple(estimators))
+        # More samples in flight than the board keeps RESULTs for could not be resent.
+        self.max_frames = min(self.max_frames, fields["result_cache"])
         return self.info
 
     def stats(self) -> dict[str, Any]:
@@ -313,6 +352,7 @@ class Link:
         if mode not in SCHEMA.mode:
             raise ValueError(f"unknown numeric mode {mode!r}; known: {', '.join(SCHEMA.mode)}")
         self.request("CONFIG", estimator=est.id, mode=SCHEMA.mode[mode], params=params)
+        self.sample_index = 0
 
     def set_baud(self, baud: int) -> None:
         """Switches board and host to a new baud rate (the board ACKs at the old one)."""

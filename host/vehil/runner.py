@@ -11,6 +11,7 @@ recording keeps every sample up to that point and says how the run ended.
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
@@ -25,7 +26,7 @@ from rich.text import Text
 
 from vehil import plants, record
 from vehil.boards import Board, make_board, open_board
-from vehil.errors import VehilError
+from vehil.errors import BoardReset, VehilError
 from vehil.link import BoardInfo, Link, Reply
 from vehil.logs import trace_from_log
 from vehil.plants.base import Trace
@@ -67,6 +68,7 @@ class Run:
     info: dict[str, Any] = field(default_factory=dict)
     recording: Path | None = None
     native_out: np.ndarray | None = None  # FIXED with bit_exact: the native build's outputs
+    resumes: list[Resume] = field(default_factory=list)  # board resets survived
 
     @property
     def done(self) -> int:
@@ -137,8 +139,8 @@ class _Drive:
         self.p = prepared
         self.total = len(prepared.inputs)
 
-    def inputs(self) -> Iterator[np.ndarray]:
-        yield from self.p.inputs
+    def inputs(self, start: int = 0) -> Iterator[np.ndarray]:
+        yield from self.p.inputs[start:]
 
     def after(self, k: int, out: np.ndarray) -> None:
         """Nothing acts back on a recorded or precomputed drive."""
@@ -172,9 +174,11 @@ class _Loop:
         self.signals: list[dict[str, float]] = []
         self.outputs = [s.name for s in scenario.estimator.outputs]
 
-    def inputs(self) -> Iterator[np.ndarray]:
+    def inputs(self, start: int = 0) -> Iterator[np.ndarray]:
+        """From sample `start`: ones measured already (sent, never answered) come again."""
         spec = self.sc.estimator
-        for k in range(self.total):
+        yield from self.u[start:]
+        for k in range(len(self.u), self.total):
             t, signals, truth = self.plant.measure()
             u = np.array([signals[self.sc.signals.get(s.name, s.name)] for s in spec.inputs])
             if not np.all(np.isfinite(u)):
@@ -212,27 +216,59 @@ def _source(scenario: Scenario) -> _Drive | _Loop:
 
 
 def _stream(
-    link: Link, source: _Drive | _Loop, sc: Scenario, realtime: bool, window: int | None
+    link: Link,
+    source: _Drive | _Loop,
+    sc: Scenario,
+    realtime: bool,
+    window: int | None,
+    start: int = 0,
 ) -> Iterator[tuple[int, Reply, bool, np.ndarray]]:
-    """(k, reply, late, outputs) for each sample, in order. Lockstep open-loop runs keep
-    the board's window full; real-time and closed-loop runs go one sample at a time."""
+    """(k, reply, late, outputs) for each sample from `start`, in order. Lockstep open-loop
+    runs keep the board's window full; real-time and closed-loop runs go one at a time."""
     spec, mode = sc.estimator, sc.mode
-    frames = (spec.encode_inputs(u, mode) for u in source.inputs())
+    frames = (spec.encode_inputs(u, mode) for u in source.inputs(start))
     if not realtime and not source.closed:
         requests = (("SAMPLE", {"inputs": body}) for body in frames)
-        for k, reply in enumerate(link.pipeline(requests, window=window)):
+        for k, reply in enumerate(link.pipeline(requests, window=window), start):
             yield k, reply, False, spec.decode_outputs(reply.fields()["outputs"], mode)
         return
     T = sc.sample_time
-    start = time.perf_counter()
-    for k, body in enumerate(frames):
-        due = start + k * T
+    t0 = time.perf_counter()
+    for k, body in enumerate(frames, start):
+        due = t0 + k * T
         while realtime and (wait := due - time.perf_counter()) > 0:
             time.sleep(min(wait, 0.002) if wait > 0.003 else 0)
         reply = link.request("SAMPLE", inputs=body)
         out = spec.decode_outputs(reply.fields()["outputs"], mode)
         source.after(k, out)
         yield k, reply, realtime and reply.sent_at + reply.rtt_s > due + T, out
+
+
+@dataclass(frozen=True)
+class Resume:
+    """A board reset mid-run, and the run taken up again after it."""
+
+    at_sample: int
+    recovery_s: float
+    reason: str
+
+
+MAX_RESUMES = 3
+
+
+def _catch_up(link: Link, sc: Scenario, history: list[tuple[bytes, bytes]]) -> None:
+    """A board that rebooted gets the estimator configured again and every sample it had
+    seen; each answer must repeat the one it gave before, bit for bit."""
+    spec = sc.estimator
+    link.hello()
+    link.configure(spec.name, sc.mode, spec.encode_params(sc.params, sc.mode))
+    replies = link.pipeline(("SAMPLE", {"inputs": body}) for body, _ in history)
+    for k, (reply, (_, before)) in enumerate(zip(replies, history, strict=True)):
+        if reply.fields()["outputs"] != before:
+            raise VehilError(
+                f"the board rebooted and, given samples 0..{len(history) - 1} again, answered "
+                f"sample {k} differently: it cannot be resumed (non-deterministic estimator?)"
+            )
 
 
 def _on_link(
@@ -243,12 +279,28 @@ def _on_link(
     realtime: bool = False,
     window: int | None = None,
     on_sample: Callable[[int, Reply, bool, np.ndarray], None] | None = None,
+    resumes: list[Resume] | None = None,
 ) -> None:
+    """Streams the scenario. With `resumes`, a board reset in a lockstep run is survived:
+    the board catches up from configuration (see _catch_up) and the run goes on."""
     spec = sc.estimator
     link.configure(spec.name, sc.mode, spec.encode_params(sc.params, sc.mode))
-    for k, reply, late, out in _stream(link, source, sc, realtime, window):
-        if on_sample is not None:
-            on_sample(k, reply, late, out)
+    history: list[tuple[bytes, bytes]] = []  # (inputs, outputs) as on the wire
+    while True:
+        try:
+            for k, reply, late, out in _stream(link, source, sc, realtime, window, len(history)):
+                history.append(
+                    (spec.encode_inputs(source.row(k)[1], sc.mode), reply.fields()["outputs"])
+                )
+                if on_sample is not None:
+                    on_sample(k, reply, late, out)
+            return
+        except BoardReset as exc:
+            if resumes is None or realtime or len(resumes) >= MAX_RESUMES:
+                raise
+            started = time.perf_counter()
+            _catch_up(link, sc, history)
+            resumes.append(Resume(len(history), time.perf_counter() - started, str(exc)))
 
 
 def native_outputs(scenario: Scenario) -> np.ndarray:
@@ -328,6 +380,7 @@ def run(
     cycles: list[int] = []
     rtt: list[float] = []
     late: list[bool] = []
+    resumes: list[Resume] = []
     ended, error = "completed", None
     recorder: record.Recorder | None = None
     info: dict[str, Any] = {}
@@ -375,7 +428,13 @@ def run(
                         progress.update(task, completed=k + 1, err=f"|board-ref| {err:.3g}")
 
                 _on_link(
-                    link, source, scenario, realtime=realtime, window=window, on_sample=on_sample
+                    link,
+                    source,
+                    scenario,
+                    realtime=realtime,
+                    window=window,
+                    on_sample=on_sample,
+                    resumes=resumes,
                 )
     except KeyboardInterrupt:
         ended, error = "interrupted", f"stopped by Ctrl-C after {len(outs)} samples"
@@ -384,7 +443,14 @@ def run(
     finally:
         wall = time.perf_counter() - started
         if recorder is not None:
-            recorder.close({"ended": ended, "error": error, "wall_s": wall})
+            recorder.close(
+                {
+                    "ended": ended,
+                    "error": error,
+                    "wall_s": wall,
+                    "resumes": [dataclasses.asdict(r) for r in resumes],
+                }
+            )
     prepared = source.prepared()
     return Run(
         prepared=prepared,
@@ -401,4 +467,5 @@ def run(
         info=info,
         recording=recorder.path if recorder else None,
         native_out=native,
+        resumes=resumes,
     )

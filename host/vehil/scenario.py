@@ -57,7 +57,7 @@ class Scenario:
     mode: str
     params: dict[str, float]
     plant: str | None = None
-    plant_params: dict[str, float] = field(default_factory=dict)
+    plant_params: dict[str, Any] = field(default_factory=dict)  # numbers, and tables read
     log: LogSource | None = None
     closed_loop: bool = False  # the plant applies the board's outputs each sample
     signals: dict[str, str] = field(default_factory=dict)  # estimator input -> source signal
@@ -156,18 +156,28 @@ def parse(data: dict[str, Any], where: str, path: Path | None = None) -> Scenari
         raise ScenarioError(f"{where}: give exactly one of [plant] and [log]")
     inputs = tuple(s.name for s in spec.inputs)
     outputs = tuple(s.name for s in spec.outputs)
-    plant_name, plant_params, log = None, {}, None
+    plant_name, log = None, None
+    plant_params: dict[str, Any] = {}
     if "plant" in data:
         pl = top.sub("plant")
         plant_name = pl.text("name")
         known_plants = plants.plants()
         if plant_name not in known_plants:
             raise pl.fail("name", f"no such plant; known: {', '.join(sorted(known_plants))}")
-        rest = _Checker(where, {k: v for k, v in pl.table.items() if k != "name"}, "plant")
+        file_inputs = {f.name for f in known_plants[plant_name].files}
+        rest = _Checker(
+            where, {k: v for k, v in pl.table.items() if k not in file_inputs | {"name"}}, "plant"
+        )
+        plant_given: dict[str, Any] = dict(_numbers(rest))
+        for name in file_inputs & pl.table.keys():
+            # A table file, relative to the scenario's folder.
+            plant_given[name] = (path.parent if path else Path()) / pl.text(name)
         try:
-            plant_params = known_plants[plant_name].param_values(_numbers(rest))
+            plant_params = known_plants[plant_name].param_values(plant_given)
         except ValueError as exc:
             raise rest.fail("", str(exc)) from None
+        except VehilError as exc:  # a table file that cannot be used
+            raise ScenarioError(f"{where}: [plant]: {exc}") from None
         duration = sc.number("duration", lo=sample_time, hi=86_400.0)
         closed_loop = sc.table.get("closed_loop", False)
         if not isinstance(closed_loop, bool):

@@ -91,6 +91,17 @@ def test_reboot_request_restarts_the_board_and_it_announces_itself(link) -> None
     assert link.hello().fields["baud"] == 1_000_000
 
 
+def test_a_hung_board_is_brought_back_by_its_watchdog(link) -> None:
+    if link.board_name != "simavr":
+        pytest.skip("QEMU's mega2560 has no watchdog: a hung board stays hung")
+    before = link.info.fields["boot_count"]
+    link.request("RESET", what=2)  # hang, interrupts off, the watchdog not fed
+    ready = link.wait_ready(5.0)  # WDTO_1S of simulated time
+    assert ready["reset_cause"] == SCHEMA.reset_cause["WATCHDOG"]
+    assert ready["boot_count"] == before + 1
+    assert link.request("PING", payload=b"back").fields()["payload"] == b"back"
+
+
 def test_a_profile_sweep_point_measures_without_loss(link) -> None:
     from vehil.profile import sweep
 

@@ -104,6 +104,10 @@ def test_ctrl_c_stops_a_run_cleanly_and_keeps_what_was_recorded(tmp_path, built)
         ("paper-dither", "simavr", 15.0),
         ("rls-flat-steps", "simavr", 20.0),
         ("mass-step", "qemu", 3.0),
+        ("s1-sine-eso-fixed", "simavr", 5.0),
+        ("s5-iso-active-eso", "simavr", 5.0),  # closed loop: the board's force drives the car
+        ("s5-iso-active-eso-fixed", "qemu", 1.0),
+        ("s6-iso-active-kfui", "simavr", 3.0),
         ("s1-dlc80-ekf", "simavr", 0.3),
         ("s5-dlc100-low-mu-ukf", "simavr", 0.3),
     ],

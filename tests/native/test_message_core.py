@@ -73,8 +73,36 @@ def test_passthrough_returns_its_inputs_in_order(link) -> None:
 
 def test_passthrough_refuses_a_sample_whose_echo_would_not_fit(link) -> None:
     link.configure("passthrough", "F32")
-    with pytest.raises(BoardError, match="BAD_LENGTH.*123 bytes"):
+    with pytest.raises(BoardError, match="BAD_LENGTH.*125 bytes"):  # index + 123
         link.request("SAMPLE", inputs=bytes(124))
+
+
+def _rls(link) -> list[bytes]:  # noqa: ANN001
+    """Three RLS samples: a stateful estimator, so a second step would show."""
+    from vehil.estimators import stlqf
+
+    spec = stlqf.RLS
+    link.configure("rls", "F32", spec.encode_params(spec.param_values({}), "F32"))
+    return [spec.encode_inputs([20.0 + k, 0.5, 1500.0 + 100 * k], "F32") for k in range(3)]
+
+
+def test_a_repeated_sample_is_answered_from_the_cache_without_stepping_again(link) -> None:
+    inputs = _rls(link)
+    first = [link.request("SAMPLE", inputs=x).fields() for x in inputs[:2]]
+    again = link.request("SAMPLE", index=1, inputs=inputs[1]).fields()
+    assert again == first[1]
+    third = link.request("SAMPLE", index=2, inputs=inputs[2]).fields()
+    assert link.stats()["replayed"] == 1
+    fresh = [r.fields() for r in link.pipeline(("SAMPLE", {"inputs": x}) for x in _rls(link))]
+    assert fresh[2]["outputs"] == third["outputs"]  # the repeat did not step the filter
+
+
+def test_a_sample_out_of_order_is_refused_with_the_index_expected(link) -> None:
+    inputs = _rls(link)
+    link.request("SAMPLE", index=0, inputs=inputs[0])
+    with pytest.raises(BoardError, match="OUT_OF_ORDER") as exc:
+        link.request("SAMPLE", index=2, inputs=inputs[2])
+    assert exc.value.detail == 1
 
 
 def test_unknown_request_type_is_an_error(link) -> None:
@@ -105,3 +133,10 @@ def test_reboot_request_is_acked_and_the_board_announces_itself_again(link) -> N
     link.request("RESET", what=1)
     assert link.wait_ready(1.0)["reset_cause"] == SCHEMA.reset_cause["SOFTWARE"]
     assert link.hello().fields["boot_count"] == 2
+
+
+def test_a_frame_with_the_right_seq_but_the_wrong_type_is_not_taken_as_the_reply(link) -> None:
+    seq = link._seq  # the PING below will use it: a STATS reply borrows it first
+    link.port.write(frame.encode(SCHEMA.messages["GET_STATS"].type, seq, b""))
+    assert link.request("PING", payload=b"mine").fields()["payload"] == b"mine"
+    assert link.wrong_type_replies == 1

@@ -23,3 +23,8 @@ def test_a_weight_matrix_that_is_not_positive_definite_is_refused_with_a11(built
     with open_board("native") as link, pytest.raises(BoardError, match="BAD_PARAM") as exc:
         link.configure("stlqf", "F32", spec.encode_params(values, "F32"))
     assert exc.value.detail == [p.name for p in spec.params].index("a11")
+
+
+def test_the_prefilter_in_c_follows_the_reference(run_scenario) -> None:  # noqa: ANN001
+    result = run_scenario("noisy-prefilter", board="native", duration=20.0)
+    assert result.figures["outputs"]["m"]["reference"]["rmse"] < 5.0

@@ -35,3 +35,18 @@ def test_faults_are_seeded_counted_and_only_after_arming() -> None:
     assert a == broken(1)[0] != broken(2)[0]
     assert counts["flip to board"] > 0 and counts["drop to board"] > 0
     assert len(a) == 200 - counts["drop to board"] - counts.get("drop from board", 0)
+
+
+def test_reboot_after_slips_one_reboot_request_in_after_that_many_writes() -> None:
+    from vehil.protocol import frame
+
+    port = serial.serial_for_url(wrap_url("loop://", "reboot_after=2"), timeout=0.1)
+    port.arm()
+    for payload in (b"a", b"b", b"c"):
+        port.write(payload)
+    data = port.read(100)
+    port.close()
+    assert data[:2] == b"ab" and data.endswith(b"c")
+    (reboot,) = frame.StreamDecoder().feed(data[2:-1])
+    assert (reboot.name, reboot.fields()) == ("RESET", {"what": 1})
+    assert port.counts["reboot"] == 1

@@ -5,12 +5,12 @@ import pytest
 
 from vehil import plants
 from vehil.estimators._quarter_car import NOMINAL
-from vehil.plants.quarter_car import QuarterCarLoop, csv_road, simulate_with
+from vehil.plants.quarter_car import QuarterCarLoop, simulate_with
 
 QUIET = {"noise_var": 0.0, "bias_lo": 0.0, "bias_hi": 0.0}
 
 
-def params(**given: float) -> dict[str, float]:
+def params(**given: object) -> dict[str, object]:
     return plants.get("quarter_car").param_values(given)
 
 
@@ -58,8 +58,8 @@ def test_a_held_force_lifts_the_body_and_the_wheel_settles_back_on_the_road() ->
 
 def test_a_recorded_profile_is_read_from_csv(tmp_path) -> None:  # noqa: ANN001
     path = tmp_path / "road.csv"
-    path.write_text("t,x_r\n0,0\n1,0.01\n2,0.01\n")
-    trace = simulate_with(params(), 2.0, 0.01, 1, road=csv_road(path, 0.001))
+    path.write_text("t [s],x_r [m]\n0,0\n1,0.01\n2,0.01\n")
+    trace = simulate_with(params(road_profile=path), 2.0, 0.01, 1)
     assert trace.truth["x_r"][50] == pytest.approx(0.005)
     assert trace.truth["x_r"][-1] == pytest.approx(0.01)
 

@@ -79,3 +79,37 @@ def test_the_plant_satisfies_the_regression_it_feeds() -> None:
     moving = s["v"] > 0.5
     assert np.abs(lhs - s["z"])[moving].max() < 1e-2
     assert 300 < np.sum(s["v"]) * 0.01 < 600  # from rest: ~0.4 km in the first 30 s
+
+
+def _scenario(tmp_path, csv_text: str):  # noqa: ANN001, ANN202
+    from vehil import scenario
+
+    (tmp_path / "drive.csv").write_text(csv_text)
+    path = tmp_path / "gps.toml"
+    path.write_text(
+        '[scenario]\ntitle = "GPS log"\nduration = 10.0\nsample_time = 0.01\n'
+        '[plant]\nname = "longitudinal"\ngps = "drive.csv"\n'
+        '[estimator]\nname = "stlqf"\nmode = "F32"\n'
+    )
+    return scenario.load(path)
+
+
+def test_a_gps_log_from_csv_gives_the_grade_the_paper_pipeline_gives(tmp_path) -> None:  # noqa: ANN001
+    from vehil.plants.longitudinal import process_gps
+
+    t = np.arange(0.0, 12.0)
+    speed, alt = np.linspace(0, 15, 12), 100 + 0.8 * np.sin(t / 2)
+    rows = "\n".join(f"{a},{b},{c}" for a, b, c in zip(t, speed, alt, strict=True))
+    sc = _scenario(tmp_path, "t [s],speed [m/s],altitude [m]\n" + rows + "\n")
+    trace = plants.get("longitudinal").run(sc.plant_params, sc.duration, sc.sample_time, 1)
+    expected = process_gps(t, speed, alt, trace.t, False)
+    np.testing.assert_allclose(trace.truth["grade"], expected, atol=1e-9)
+
+
+def test_a_gps_log_with_a_wrong_unit_is_refused_naming_file_and_column(tmp_path) -> None:  # noqa: ANN001
+    from vehil.scenario import ScenarioError
+
+    with pytest.raises(
+        ScenarioError, match=r"drive.csv: column 'speed' is in 'km/h'; gps needs 'm/s'"
+    ):
+        _scenario(tmp_path, "t [s],speed [km/h],altitude [m]\n0,0,100\n1,5,101\n")

@@ -18,6 +18,11 @@
 /* A reply that cannot name its request (oversize frame, RX overrun) uses this seq. */
 #define UNSOLICITED_SEQ 0u
 
+/* RESULTs kept so a SAMPLE sent again (its reply was lost) is answered without
+ * stepping the estimator twice; bodies longer than a slot are not kept. */
+#define RESULT_CACHE 16u
+#define RESULT_CACHE_BODY 40u
+
 static struct {
     uint8_t rx[FRAME_WIRE_MAX]; /* the frame being received, still COBS-encoded */
     uint16_t rx_len;
@@ -30,6 +35,40 @@ static struct {
     uint16_t overruns_reported;
     msg_stats_t stats;
 } core;
+
+static struct {
+    uint16_t next; /* index of the SAMPLE to step next */
+    uint8_t count; /* results kept, the newest in slot head - 1 */
+    uint8_t head;
+    struct {
+        uint8_t len; /* 0: the body did not fit */
+        uint8_t body[RESULT_CACHE_BODY];
+    } slot[RESULT_CACHE];
+} results;
+
+static void results_clear(void) { results.next = results.count = results.head = 0; }
+
+static void results_keep(uint16_t body_len)
+{
+    results.slot[results.head].len = body_len <= RESULT_CACHE_BODY ? (uint8_t)body_len : 0u;
+    memcpy(results.slot[results.head].body, core.body, results.slot[results.head].len);
+    results.head = (uint8_t)((results.head + 1u) % RESULT_CACHE);
+    if (results.count < RESULT_CACHE) {
+        results.count++;
+    }
+    results.next++;
+}
+
+/* The kept RESULT of the sample `behind` before the next one, or 0 if there is none. */
+static uint8_t results_find(uint16_t behind)
+{
+    if (behind == 0u || behind > results.count) {
+        return 0;
+    }
+    uint8_t i = (uint8_t)((results.head + RESULT_CACHE - behind) % RESULT_CACHE);
+    memcpy(core.body, results.slot[i].body, results.slot[i].len);
+    return results.slot[i].len;
+}
 
 static void send(uint8_t type, uint8_t seq, uint16_t body_len)
 {
@@ -73,6 +112,7 @@ static void send_info(uint8_t seq)
         .reset_cause = port_reset_cause(),
         .estimators = estimator_count(),
         .probe_cycles = core.probe_cycles,
+        .result_cache = RESULT_CACHE,
     };
     msg_info_pack(&info, core.body);
     send(MSG_INFO, seq, MSG_INFO_FIXED_SIZE);
@@ -139,6 +179,7 @@ static void on_config(const frame_t *f)
     }
     core.estimator = est;
     core.mode = cfg.mode;
+    results_clear();
     send_ack(f->seq, f->type);
 }
 
@@ -156,11 +197,16 @@ static void on_reset(const frame_t *f)
             return;
         }
         core.estimator->reset(estimator_state());
+        results_clear();
         send_ack(f->seq, f->type);
-    } else if (r.what == 1) {
+    } else if (r.what == 1 || r.what == 2) {
         send_ack(f->seq, f->type);
         port_flush();
-        port_reboot();
+        if (r.what == 1) {
+            port_reboot();
+        } else {
+            port_hang();
+        }
     } else {
         send_error(f->seq, f->type, ERR_BAD_PARAM, 0);
     }
@@ -173,20 +219,33 @@ static void on_sample(const frame_t *f)
         send_error(f->seq, f->type, ERR_NOT_CONFIGURED, 0);
         return;
     }
+    uint16_t in_len = (uint16_t)(f->body_len - MSG_SAMPLE_FIXED_SIZE);
     uint16_t want = (uint16_t)(est->n_inputs * ESTIMATOR_VALUE_SIZE);
     if (est->n_inputs == ESTIMATOR_ANY_LENGTH) {
         want = VEHIL_MAX_BODY - MSG_RESULT_FIXED_SIZE; /* the echo must fit a RESULT */
-        if (f->body_len > want) {
-            send_error(f->seq, f->type, ERR_BAD_LENGTH, want);
+        if (f->body_len < MSG_SAMPLE_FIXED_SIZE || in_len > want) {
+            send_error(f->seq, f->type, ERR_BAD_LENGTH, (uint16_t)(MSG_SAMPLE_FIXED_SIZE + want));
             return;
         }
-    } else if (f->body_len != want) {
-        send_error(f->seq, f->type, ERR_BAD_LENGTH, want);
+    } else if (f->body_len != MSG_SAMPLE_FIXED_SIZE + want) {
+        send_error(f->seq, f->type, ERR_BAD_LENGTH, (uint16_t)(MSG_SAMPLE_FIXED_SIZE + want));
+        return;
+    }
+    msg_sample_t sample;
+    msg_sample_unpack(f->body, &sample);
+    if (sample.index != results.next) {
+        uint8_t len = results_find((uint16_t)(results.next - sample.index));
+        if (len == 0u) {
+            send_error(f->seq, f->type, ERR_OUT_OF_ORDER, results.next);
+            return;
+        }
+        saturating_inc(&core.stats.replayed);
+        send(MSG_RESULT, f->seq, len);
         return;
     }
     uint8_t out_len = 0;
     uint32_t start = port_cycles();
-    uint8_t status = est->step(estimator_state(), f->body, (uint8_t)f->body_len,
+    uint8_t status = est->step(estimator_state(), f->body + MSG_SAMPLE_FIXED_SIZE, (uint8_t)in_len,
                                core.body + MSG_RESULT_FIXED_SIZE, &out_len);
     uint32_t elapsed = port_cycles() - start;
     /* The probe's own cost is measured once at boot; a noisy host clock can undercut it,
@@ -194,6 +253,7 @@ static void on_sample(const frame_t *f)
     uint32_t cycles = (int32_t)elapsed > (int32_t)core.probe_cycles ? elapsed - core.probe_cycles : 0u;
     msg_result_t res = {.status = status, .cycles = cycles};
     msg_result_pack(&res, core.body);
+    results_keep((uint16_t)(MSG_RESULT_FIXED_SIZE + out_len));
     send(MSG_RESULT, f->seq, (uint16_t)(MSG_RESULT_FIXED_SIZE + out_len));
 }
 

@@ -33,5 +33,7 @@ uint16_t port_boot_count(void);
 uint8_t port_reset_cause(void); /* RESET_CAUSE_* */
 /* Restarts the board; on the AVR through the watchdog, so it does not return. */
 void port_reboot(void);
+/* Hangs with interrupts off, not feeding the watchdog: it must reset the board. */
+void port_hang(void);
 
 #endif

@@ -6,7 +6,8 @@
 #include "proto/wire.h"
 
 const param_range_t longit_ranges[LONGIT_N_PARAMS] = {
-    {0.0f, 0.1f, 30}, {0.5f, 2.0f, 24}, {9.0f, 10.5f, 24}, {100.0f, 30000.0f, 16}, {0.0f, 20.0f, 24},
+    {0.0f, 0.1f, 30},  {0.5f, 2.0f, 24}, {9.0f, 10.5f, 24}, {100.0f, 30000.0f, 16},
+    {0.0f, 20.0f, 24}, {1e-3f, 1.0f, 30}, {0.0f, 50.0f, 16},
 };
 
 uint8_t longit_check(const uint8_t *params, uint8_t mode, const param_range_t *own, uint8_t n_own)
@@ -26,18 +27,51 @@ void longit_configure(longit_t *l, const uint8_t *params, uint8_t first)
     l->g_cos = get_f32(params + 4u * (first + LONGIT_G)) / cosf(l->eps);
     l->m0 = get_f32(params + 4u * (first + LONGIT_M0));
     l->cda0 = get_f32(params + 4u * (first + LONGIT_CDA0));
+    l->T = get_f32(params + 4u * (first + LONGIT_T));
+    float hz = get_f32(params + 4u * (first + LONGIT_PREFILTER_HZ));
+    l->filter = hz > 0.0f;
+    /* Butterworth by the bilinear transform, prewarped to hz. */
+    float k = tanf(3.14159265f * hz * l->T);
+    float norm = 1.0f / (1.0f + 1.41421356f * k + k * k);
+    l->b0 = k * k * norm;
+    l->a1 = 2.0f * (k * k - 1.0f) * norm;
+    l->a2 = (1.0f - 1.41421356f * k + k * k) * norm;
+    longit_reset(l);
 }
 
-uint8_t longit_inputs(const longit_t *l, const uint8_t *in, float *psi, float *z)
+void longit_reset(longit_t *l) { l->started = 0; }
+
+/* One sample through the prefilter (transposed direct form II), settled at the first. */
+static void prefilter(longit_t *l, float *x)
+{
+    for (uint8_t c = 0; c < 3u; c++) {
+        float *s = l->s[c];
+        if (!l->started) {
+            s[0] = (1.0f - l->b0) * x[c];
+            s[1] = (l->b0 - l->a2) * x[c];
+        }
+        float y = l->b0 * x[c] + s[0];
+        s[0] = 2.0f * l->b0 * x[c] - l->a1 * y + s[1];
+        s[1] = l->b0 * x[c] - l->a2 * y;
+        x[c] = y;
+    }
+    l->started = 1;
+}
+
+uint8_t longit_inputs(longit_t *l, const uint8_t *in, float *psi, float *z)
 {
     float v = get_f32(in), v_dot = get_f32(in + 4);
-    *z = get_f32(in + 8);
-    if (!isfinite(v) || !isfinite(v_dot) || !isfinite(*z)) {
+    float x[3] = {v_dot, l->half_rho * v * v, get_f32(in + 8)};
+    if (!isfinite(v) || !isfinite(v_dot) || !isfinite(x[2])) {
         return STATUS_NOT_FINITE;
     }
-    psi[0] = v_dot;
-    psi[1] = l->half_rho * v * v;
+    if (l->filter) {
+        prefilter(l, x);
+    }
+    psi[0] = x[0];
+    psi[1] = x[1];
     psi[2] = l->g_cos;
+    *z = x[2];
     return 0;
 }
 

@@ -1,6 +1,7 @@
 /* The longitudinal regression of seed 002 (eq. 24) that STLQF and RLS share:
  * m v̇ + C_dA_f ½ρv² + m sin(ε + β_r) g/cos ε = F_x, ψ = [v̇, ½ρv², g/cos ε],
- * θ = [m, C_dA_f, m sin(ε + β_r)]. */
+ * θ = [m, C_dA_f, m sin(ε + β_r)]; optionally v̇, ½ρv² and z through the same
+ * 2nd-order Butterworth low-pass (the host's stlqf.Prefilter). */
 #ifndef VEHIL_ESTIMATORS_LONGIT_H
 #define VEHIL_ESTIMATORS_LONGIT_H
 
@@ -9,12 +10,24 @@
 #include "estimators/params.h"
 
 /* The parameters both take last, in this order (host: stlqf.SHARED_PARAMS). */
-enum { LONGIT_EPS, LONGIT_RHO, LONGIT_G, LONGIT_M0, LONGIT_CDA0, LONGIT_N_PARAMS };
+enum {
+    LONGIT_EPS,
+    LONGIT_RHO,
+    LONGIT_G,
+    LONGIT_M0,
+    LONGIT_CDA0,
+    LONGIT_T,
+    LONGIT_PREFILTER_HZ,
+    LONGIT_N_PARAMS
+};
 extern const param_range_t longit_ranges[LONGIT_N_PARAMS];
 
 typedef struct {
     float eps, half_rho, g_cos; /* ε, ½ρ, g / cos ε */
-    float m0, cda0;
+    float m0, cda0, T;
+    float b0, a1, a2;  /* prefilter (b1 = 2 b0, b2 = b0) */
+    float s[3][2];     /* its states for v̇, ½ρv², z */
+    uint8_t filter, started;
 } longit_t;
 
 /* 0 if the estimator's own n_own parameters and then the shared ones are in range,
@@ -24,8 +37,12 @@ uint8_t longit_check(const uint8_t *params, uint8_t mode, const param_range_t *o
 /* Reads the shared parameters starting at index `first`. */
 void longit_configure(longit_t *l, const uint8_t *params, uint8_t first);
 
-/* ψ and z from a SAMPLE's v, v̇, z; STATUS_NOT_FINITE (and nothing read) if one is not finite. */
-uint8_t longit_inputs(const longit_t *l, const uint8_t *in, float *psi, float *z);
+/* The prefilter back to its start (it settles on the next sample). */
+void longit_reset(longit_t *l);
+
+/* ψ and z from a SAMPLE's v, v̇, z, prefiltered; STATUS_NOT_FINITE (and nothing read)
+ * if one is not finite. */
+uint8_t longit_inputs(longit_t *l, const uint8_t *in, float *psi, float *z);
 
 /* θ(0) = [m0, C_dA_f0, m0 sin ε] (a level road). */
 void longit_initial(const longit_t *l, float *theta);

@@ -21,6 +21,7 @@ static void rls_reset(void *state)
 {
     rls_state_t *s = state;
     longit_initial(&s->model, s->theta);
+    longit_reset(&s->model);
     reset_covariance(s);
     for (uint8_t i = 0; i < 3u; i++) {
         s->cap[i] = s->p_cap * s->P[4u * i];

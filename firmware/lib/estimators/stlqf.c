@@ -6,12 +6,12 @@
 #include "linalg/chol_f32.h"
 #include "proto/wire.h"
 
-enum { P_T, P_CHI1, P_CHI2, P_A11, P_A12, P_A13, P_A22, P_A23, P_A33, P_MU, P_COND, N_OWN };
+enum { P_CHI1, P_CHI2, P_A11, P_A12, P_A13, P_A22, P_A23, P_A33, P_MU, P_COND, N_OWN };
 #define N_PARAMS (N_OWN + LONGIT_N_PARAMS)
 #define CENTRE (STLQF_ROWS - 1u - STLQF_WL) /* row of the window centre */
 
 static const param_range_t ranges[N_OWN] = {
-    {1e-3f, 1.0f, 30},     {0.0f, 10.0f, 24},     {0.0f, 10.0f, 24},     {-100.0f, 100.0f, 24},
+    {0.0f, 10.0f, 24},     {0.0f, 10.0f, 24},     {-100.0f, 100.0f, 24},
     {-100.0f, 100.0f, 24}, {-100.0f, 100.0f, 24}, {-100.0f, 100.0f, 24}, {-100.0f, 100.0f, 24},
     {-100.0f, 100.0f, 24}, {0.0f, 1.0f, 30},      {1.0f, 1e9f, 0},
 };
@@ -76,6 +76,7 @@ static void stlqf_reset(void *state)
         s->theta[2u * l + 1u] = theta0[l];
     }
     s->n_hist = s->n_rows = 0;
+    longit_reset(&s->model);
 }
 
 static uint8_t stlqf_configure(void *state, uint8_t mode, const uint8_t *params)
@@ -98,8 +99,9 @@ static uint8_t stlqf_configure(void *state, uint8_t mode, const uint8_t *params)
         return 1u + P_A11; /* A is not positive definite */
     }
     longit_configure(&s->model, params, N_OWN);
-    s->c1 = p[P_CHI1] / p[P_T];
-    s->c2 = p[P_CHI2] / (p[P_T] * p[P_T]);
+    float T = s->model.T;
+    s->c1 = p[P_CHI1] / T;
+    s->c2 = p[P_CHI2] / (T * T);
     s->mu = p[P_MU];
     s->cond_flag = p[P_COND];
     /* g/cos ε is constant, so its filtered columns are exact: τ g' + χ1 g'/T and g'. */

@@ -7,7 +7,8 @@
  * towards zero (host: estimators/stlqf.py).
  *
  * Inputs  v [m/s], v̇ [m/s²], z [N].  Outputs m̂ [kg], Ĉ_dA_f [m²], β̂_r [deg], log10 cond.
- * Params  T, χ1, χ2, a11 a12 a13 a22 a23 a33, μ, cond_flag, then longit's. float32. */
+ * Params  χ1, χ2, a11 a12 a13 a22 a23 a33, μ, cond_flag, then longit's (ε, ρ, g, m0,
+ *         C_dA_f0, T, prefilter Hz). float32. */
 #ifndef VEHIL_ESTIMATORS_STLQF_H
 #define VEHIL_ESTIMATORS_STLQF_H
 

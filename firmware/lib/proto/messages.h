@@ -5,7 +5,7 @@
 
 #include "proto/wire.h"
 
-#define VEHIL_PROTOCOL_VERSION 1u
+#define VEHIL_PROTOCOL_VERSION 2u
 #define VEHIL_MAX_BODY 128u
 
 /* Message types */
@@ -36,6 +36,7 @@
 #define ERR_BAD_BAUD 0x08u
 #define ERR_OVERSIZE 0x09u
 #define ERR_OVERRUN 0x0Au
+#define ERR_OUT_OF_ORDER 0x0Bu
 
 /* Numeric modes */
 #define MODE_F32 0x00u
@@ -91,7 +92,9 @@ static inline void msg_config_unpack(const uint8_t *body, msg_config_t *m)
     m->mode = get_u8(body + 1);
 }
 
-/* RESET: what=0: reset the configured estimator's state; what=1: reboot the board (watchdog). */
+/* RESET: what=0: reset the configured estimator's state; what=1: reboot the board (watchdog);
+what=2: hang with interrupts off until the watchdog resets the board (its self-test: INFO
+then gives reset_cause WATCHDOG; a board without a watchdog, QEMU's, stays hung). */
 #define MSG_RESET_FIXED_SIZE 1u
 typedef struct {
     uint8_t what;
@@ -105,8 +108,22 @@ static inline void msg_reset_unpack(const uint8_t *body, msg_reset_t *m)
     m->what = get_u8(body + 0);
 }
 
-/* SAMPLE: One step's inputs in the estimator's numeric format; answered by RESULT or ERROR. */
-#define MSG_SAMPLE_FIXED_SIZE 0u
+/* SAMPLE: One step's inputs in the estimator's numeric format; answered by RESULT or ERROR.
+`index` counts samples from 0 since CONFIG or RESET (mod 65536): the board steps only
+the next one, answers a repeat of one of its last INFO.result_cache from its cache
+(without stepping again), and refuses any other with OUT_OF_ORDER. */
+#define MSG_SAMPLE_FIXED_SIZE 2u
+typedef struct {
+    uint16_t index;
+} msg_sample_t;
+static inline void msg_sample_pack(const msg_sample_t *m, uint8_t *body)
+{
+    put_u16(body + 0, m->index);
+}
+static inline void msg_sample_unpack(const uint8_t *body, msg_sample_t *m)
+{
+    m->index = get_u16(body + 0);
+}
 
 /* GET_STATS: Ask for STATS. */
 #define MSG_GET_STATS_FIXED_SIZE 0u
@@ -140,7 +157,7 @@ static inline void msg_get_estimator_unpack(const uint8_t *body, msg_get_estimat
 }
 
 /* INFO: Board identity; also sent unsolicited (seq 0) once the firmware is ready after a reset. */
-#define MSG_INFO_FIXED_SIZE 29u
+#define MSG_INFO_FIXED_SIZE 30u
 typedef struct {
     uint8_t protocol;
     uint8_t fw_major;
@@ -157,6 +174,7 @@ typedef struct {
     uint8_t reset_cause;
     uint8_t estimators;
     uint16_t probe_cycles;
+    uint8_t result_cache;
 } msg_info_t;
 static inline void msg_info_pack(const msg_info_t *m, uint8_t *body)
 {
@@ -175,6 +193,7 @@ static inline void msg_info_pack(const msg_info_t *m, uint8_t *body)
     put_u8(body + 25, m->reset_cause);
     put_u8(body + 26, m->estimators);
     put_u16(body + 27, m->probe_cycles);
+    put_u8(body + 29, m->result_cache);
 }
 static inline void msg_info_unpack(const uint8_t *body, msg_info_t *m)
 {
@@ -193,6 +212,7 @@ static inline void msg_info_unpack(const uint8_t *body, msg_info_t *m)
     m->reset_cause = get_u8(body + 25);
     m->estimators = get_u8(body + 26);
     m->probe_cycles = get_u16(body + 27);
+    m->result_cache = get_u8(body + 29);
 }
 
 /* PONG: PING's payload echoed, with the board's cycle counter when the PING was handled. */
@@ -241,7 +261,7 @@ static inline void msg_result_unpack(const uint8_t *body, msg_result_t *m)
 }
 
 /* STATS: Link and board health counters since boot. */
-#define MSG_STATS_FIXED_SIZE 30u
+#define MSG_STATS_FIXED_SIZE 32u
 typedef struct {
     uint32_t rx_frames;
     uint32_t tx_frames;
@@ -254,6 +274,7 @@ typedef struct {
     uint16_t stack_unused;
     uint32_t timestamp;
     uint32_t frame_cycles;
+    uint16_t replayed;
 } msg_stats_t;
 static inline void msg_stats_pack(const msg_stats_t *m, uint8_t *body)
 {
@@ -268,6 +289,7 @@ static inline void msg_stats_pack(const msg_stats_t *m, uint8_t *body)
     put_u16(body + 20, m->stack_unused);
     put_u32(body + 22, m->timestamp);
     put_u32(body + 26, m->frame_cycles);
+    put_u16(body + 30, m->replayed);
 }
 static inline void msg_stats_unpack(const uint8_t *body, msg_stats_t *m)
 {
@@ -282,6 +304,7 @@ static inline void msg_stats_unpack(const uint8_t *body, msg_stats_t *m)
     m->stack_unused = get_u16(body + 20);
     m->timestamp = get_u32(body + 22);
     m->frame_cycles = get_u32(body + 26);
+    m->replayed = get_u16(body + 30);
 }
 
 /* ESTIMATOR: One registry entry. Counts are of 4-byte values; 0 inputs means any length (passthrough). */

@@ -1,6 +1,6 @@
 """Boards: where the firmware runs, each reached through a pyserial URL.
 
-`open_board(spec)` takes "simavr", "qemu", "native", or anything pyserial can
+`open_board(spec)` takes "simavr", "simavr-bootloader", "qemu", "native", or anything pyserial can
 open (a device such as /dev/ttyACM0, or a URL such as socket://host:port), and
 returns a context manager that starts the board, waits for its ready frame,
 yields a Link with the board's INFO read, and stops the board on the way out,
@@ -13,10 +13,11 @@ from vehil.boards.base import Board
 from vehil.boards.native import NativeBoard
 from vehil.boards.qemu import QemuBoard
 from vehil.boards.serialport import SerialBoard
-from vehil.boards.simavr import SimavrBoard
+from vehil.boards.simavr import SimavrBoard, SimavrBootloaderBoard
 
 VIRTUAL_BOARDS: dict[str, type[Board]] = {
     "simavr": SimavrBoard,
+    "simavr-bootloader": SimavrBootloaderBoard,
     "qemu": QemuBoard,
     "native": NativeBoard,
 }

@@ -20,6 +20,7 @@ class Board:
     name = "board"
     ready_timeout_s = 10.0
     max_frames_in_flight: int | None = None  # None: as many as the board's RX buffer holds
+    flashable = False  # has a bootloader that avrdude can program (`vehil flash`)
 
     def __init__(
         self, *, baud: int = DEFAULT_BAUD, timeout_s: float = 2.0, faults: str | None = None
@@ -46,6 +47,9 @@ class Board:
     def stop(self) -> None:
         """Takes the board down; safe to call twice and after a failed start."""
 
+    def enter_bootloader(self, url: str) -> None:
+        """Before avrdude runs: make sure the bootloader is what answers."""
+
     def open_port(self, url: str) -> serial.SerialBase:
         try:
             return serial.serial_for_url(self.port_url(url), baudrate=self.baud, timeout=0.02)
@@ -63,9 +67,11 @@ class Board:
         return ""
 
     @contextlib.contextmanager
-    def session(self) -> Iterator[Link]:
+    def session(self, url: str | None = None) -> Iterator[Link]:
+        """Starts the board (unless `url` says it is up already) and opens its link."""
         try:
-            url = self.start()
+            if url is None:
+                url = self.start()
             link = Link(self.open_port(url), timeout_s=self.timeout_s)
             if self.max_frames_in_flight is not None:
                 link.max_frames = self.max_frames_in_flight

@@ -4,16 +4,17 @@ or any other pyserial URL."""
 from __future__ import annotations
 
 import errno
+import time
 
 import serial
 from serial.tools import list_ports
 
 from vehil.boards.base import Board
-from vehil.errors import BoardStartError, BoardTimeout
+from vehil.errors import BoardStartError, BoardTimeout, NoPort, PortBusy
 from vehil.link import Link
 
 
-def _ports_seen() -> str:
+def ports_seen() -> str:
     ports = [p.device for p in list_ports.comports()]
     return ", ".join(ports) if ports else "none"
 
@@ -23,6 +24,7 @@ class SerialBoard(Board):
     (up to ~1 s) and then the firmware sends its ready frame."""
 
     ready_timeout_s = 4.0
+    flashable = True
 
     def __init__(self, port: str, **options: object):
         super().__init__(**options)  # type: ignore[arg-type]
@@ -41,11 +43,9 @@ class SerialBoard(Board):
             cause = exc.__context__ if isinstance(exc.__context__, OSError) else None
             code = getattr(cause, "errno", None) or getattr(exc, "errno", None)
             if code == errno.ENOENT:
-                raise BoardStartError(
-                    f"no serial port {url}; ports seen: {_ports_seen()}"
-                ) from None
+                raise NoPort(f"no serial port {url}; ports seen: {ports_seen()}") from None
             if code in (errno.EBUSY, errno.EAGAIN) or "lock" in str(exc):
-                raise BoardStartError(
+                raise PortBusy(
                     f"{url} is busy: another program (a serial monitor, avrdude, "
                     "another vehil) has it open; close that and retry"
                 ) from None
@@ -55,6 +55,18 @@ class SerialBoard(Board):
                     "(`sudo usermod -aG dialout $USER`, then log in again)"
                 ) from None
             raise BoardStartError(f"cannot open {url}: {exc}") from None
+
+    def enter_bootloader(self, url: str) -> None:
+        """A DTR pulse resets a Mega into its bootloader (avrdude's wiring programmer
+        pulses again). Opening the port here first says clearly when it is missing or busy."""
+        port = self.open_port(url)
+        try:
+            port.dtr = False
+            time.sleep(0.1)
+            port.dtr = True
+            time.sleep(0.05)
+        finally:
+            port.close()
 
     def wait_ready(self, link: Link) -> None:
         """Waits for the boot frame; a board that did not reset on open is asked directly."""

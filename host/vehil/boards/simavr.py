@@ -1,4 +1,6 @@
-"""The simavr board: sim/'s bridge runs the firmware ELF on a cycle-exact ATmega2560."""
+"""The simavr boards: sim/'s bridge runs the firmware ELF on a cycle-exact ATmega2560
+(`simavr`), or a chip with only the Mega's bootloader that avrdude programs
+(`simavr-bootloader`)."""
 
 from __future__ import annotations
 
@@ -6,8 +8,9 @@ from pathlib import Path
 
 from vehil.boards.base import Board
 from vehil.boards.process import BoardProcess
-from vehil.errors import BuildMissing
-from vehil.paths import FIRMWARE_ELF, SIMAVR_BRIDGE
+from vehil.errors import BoardTimeout, BuildMissing
+from vehil.link import Link
+from vehil.paths import FIRMWARE_ELF, MEGA_BOOTLOADER_HEX, SIMAVR_BRIDGE, SIMAVR_FLASH_IMAGE
 
 _READY_PREFIX = "vehil-simavr: listening url="
 
@@ -31,11 +34,17 @@ class SimavrBoard(Board):
             self.extra += ["--gdb", str(gdb_port)]
         self.process: BoardProcess | None = None
 
+    def bridge_args(self) -> list[str]:
+        """What the bridge runs; checks that it is there."""
+        if not self.elf.exists():
+            raise BuildMissing(f"firmware image {self.elf} is missing: run `vehil build`")
+        return [str(self.elf)]
+
     def start(self) -> str:
-        for path, what in ((SIMAVR_BRIDGE, "simavr bridge"), (self.elf, "firmware image")):
-            if not path.exists():
-                raise BuildMissing(f"{what} {path} is missing: run `vehil build`")
-        self.process = BoardProcess([str(SIMAVR_BRIDGE), *self.extra, str(self.elf)], "simavr")
+        if not SIMAVR_BRIDGE.exists():
+            raise BuildMissing(f"simavr bridge {SIMAVR_BRIDGE} is missing: run `vehil build`")
+        argv = [str(SIMAVR_BRIDGE), *self.extra, *self.bridge_args()]
+        self.process = BoardProcess(argv, self.name)
         line = self.process.read_line(timeout_s=10.0)
         if not line.startswith(_READY_PREFIX):
             raise self.process.failure(f"printed {line!r} instead of its URL")
@@ -52,3 +61,45 @@ class SimavrBoard(Board):
         if self.process is not None:
             self.process.stop()
             self.process = None
+
+
+class SimavrBootloaderBoard(SimavrBoard):
+    """A Mega 2560 with nothing but its stk500v2 bootloader: what runs is what avrdude
+    wrote. Opening the port resets it into the bootloader, as on the real board; the
+    firmware's ready frame comes after the bootloader's ~1 s wait. The flash is kept
+    in `flash_image` (None: erased at every start)."""
+
+    name = "simavr-bootloader"
+    flashable = True
+
+    def __init__(
+        self,
+        *,
+        bootloader: Path = MEGA_BOOTLOADER_HEX,
+        flash_image: Path | None = SIMAVR_FLASH_IMAGE,
+        **options: object,
+    ):
+        super().__init__(**options)  # type: ignore[arg-type]
+        self.bootloader = bootloader
+        self.flash_image = flash_image
+
+    def bridge_args(self) -> list[str]:
+        if not self.bootloader.exists():
+            raise BuildMissing(
+                f"bootloader {self.bootloader} is missing: install Debian's arduino-core-avr "
+                "(`sudo apt-get install arduino-core-avr`)"
+            )
+        args = ["--bootloader", str(self.bootloader)]
+        if self.flash_image is not None:
+            self.flash_image.parent.mkdir(parents=True, exist_ok=True)
+            args += ["--flash-image", str(self.flash_image)]
+        return args
+
+    def wait_ready(self, link: Link) -> None:
+        try:
+            super().wait_ready(link)
+        except BoardTimeout as exc:
+            raise BoardTimeout(
+                f"{exc}\nIs the firmware flashed? `vehil flash --board {self.name}` programs "
+                "it through the bootloader."
+            ) from None

@@ -65,9 +65,10 @@ SHARED_PARAMS = (
     Param("g", "m/s^2", q=24, default=9.81, lo=9.0, hi=10.5),
     Param("m0", "kg", q=16, default=1000.0, lo=100.0, hi=30000.0, doc="initial mass"),
     Param("cda0", "m^2", q=24, default=0.3, lo=0.0, hi=20.0, doc="initial drag area"),
+    Param("T", "s", q=30, default=0.01, lo=1e-3, hi=1.0, doc="sample time"),
+    Param("prefilter_hz", "Hz", q=16, default=0.0, lo=0.0, hi=50.0, doc="0: no prefilter"),
 )
 STLQF_PARAMS = (
-    Param("T", "s", q=30, default=0.01, lo=1e-3, hi=1.0, doc="sample time"),
     Param("chi1", "s", q=24, default=1.0, lo=0.0, hi=10.0, doc="χ1 (eq. 14)"),
     Param("chi2", "s^2", q=24, default=1.0, lo=0.0, hi=10.0, doc="χ2 (eq. 14)"),
     *(
@@ -84,6 +85,41 @@ CODE_WEIGHTS = {"a11": 1.0, "a12": -1.0, "a13": -1.0, "a22": 2.0, "a23": 1.0, "a
 def regressors(v: float, v_dot: float, p: Mapping[str, float]) -> np.ndarray:
     """ψ = [v̇, ½ρv², g/cos ε] (eq. 26)."""
     return np.array([v_dot, 0.5 * p["rho"] * v * v, p["g"] / math.cos(p["eps"])])
+
+
+class Prefilter:
+    """2nd-order Butterworth low-pass (bilinear, prewarped) on v̇, ½ρv² and z, the same on
+    each so the regression stays consistent; starts settled on the first sample. Off at
+    `prefilter_hz` = 0. The paper filters "in operational mode" without saying how (Fig. 9)."""
+
+    def __init__(self, p: Mapping[str, float]):
+        self.on = p["prefilter_hz"] > 0
+        k = math.tan(math.pi * p["prefilter_hz"] * p["T"])
+        norm = 1.0 / (1.0 + math.sqrt(2.0) * k + k * k)
+        self.b0 = k * k * norm
+        self.a1 = 2.0 * (k * k - 1.0) * norm
+        self.a2 = (1.0 - math.sqrt(2.0) * k + k * k) * norm
+        self.s: np.ndarray | None = None  # two states per channel
+
+    def __call__(self, x: np.ndarray) -> np.ndarray:
+        if not self.on:
+            return x
+        b0, b1, b2 = self.b0, 2.0 * self.b0, self.b0
+        if self.s is None:
+            self.s = np.array([(1.0 - b0) * x, (b2 - self.a2) * x])
+        y = b0 * x + self.s[0]
+        self.s = np.array([b1 * x - self.a1 * y + self.s[1], b2 * x - self.a2 * y])
+        return y
+
+
+def measured(
+    u: np.ndarray, p: Mapping[str, float], prefilter: Prefilter
+) -> tuple[np.ndarray, float]:
+    """ψ and z of a sample [v, v̇, z], through the prefilter."""
+    v, v_dot, z = (float(x) for x in u)
+    psi = regressors(v, v_dot, p)
+    x = prefilter(np.r_[psi[:2], z])
+    return np.r_[x[:2], psi[2]], float(x[2])
 
 
 def grade_deg(theta: np.ndarray, p: Mapping[str, float]) -> float:
@@ -148,6 +184,7 @@ class Stlqf:
 
     def __init__(self, p: Mapping[str, float]):
         self.p = p
+        self.prefilter = Prefilter(p)
         self.R = weight_factor(p)
         self.theta = np.array([0.0, p["m0"], 0.0, p["cda0"], 0.0, p["m0"] * math.sin(p["eps"])])
         self.hist: list[tuple[np.ndarray, float]] = []  # (ψ, z) of the last two samples
@@ -182,9 +219,8 @@ class Stlqf:
         return x.T @ x, x.T @ r
 
     def step(self, u: np.ndarray) -> np.ndarray:
-        v, v_dot, z = (float(x) for x in u)
         p = self.p
-        self._push(regressors(v, v_dot, p), z)
+        self._push(*measured(u, p, self.prefilter))
         self.flags = 0
         log_cond = 0.0
         if len(self.rows) == ROWS:
@@ -220,10 +256,10 @@ class Rls:
         self.theta = np.array([p["m0"], p["cda0"], p["m0"] * math.sin(p["eps"])])
         self.P = np.diag([p["p0_m"], p["p0_cda"], p["p0_m"]])
         self.cap = p["p_cap"] * np.diag(self.P)
+        self.prefilter = Prefilter(p)
 
     def step(self, u: np.ndarray) -> np.ndarray:
-        v, v_dot, z = (float(x) for x in u)
-        psi = regressors(v, v_dot, self.p)
+        psi, z = measured(u, self.p, self.prefilter)
         lam = self.p["lambda"]
         ppsi = self.P @ psi
         k = ppsi / (lam + psi @ ppsi)

@@ -14,10 +14,12 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from typing import Protocol
+from pathlib import Path
+from typing import Any, Protocol
 
 import numpy as np
 
+from vehil.csvlog import LogError, read_csv
 from vehil.estimators.base import Param, Signal, resolve_params
 
 
@@ -47,26 +49,72 @@ class LoopPlant(Protocol):
 
 
 @dataclass(frozen=True)
+class FileInput:
+    """A table a plant can take from a CSV (`name [unit]` header) instead of making it:
+    a recorded road, a GPS trace. `columns` are the ones it needs, with their units."""
+
+    name: str
+    columns: tuple[Signal, ...]
+    doc: str = ""
+
+    def load(self, path: Path) -> dict[str, np.ndarray]:
+        table = read_csv(path)
+        out = {}
+        for col in self.columns:
+            if col.name not in table.values:
+                raise LogError(
+                    f"{path}: no column {col.name!r} ({self.name} needs "
+                    f"{', '.join(f'{c.name} [{c.unit}]' for c in self.columns)})"
+                )
+            if table.units[col.name] != col.unit:
+                raise LogError(
+                    f"{path}: column {col.name!r} is in {table.units[col.name]!r}; "
+                    f"{self.name} needs {col.unit!r}"
+                )
+            x = table.values[col.name]
+            if not np.all(np.isfinite(x)):
+                raise LogError(f"{path}: column {col.name!r} has NaN/inf on line {_first_bad(x)}")
+            out[col.name] = x
+        t = out.get("t")
+        if t is not None and (len(t) < 2 or np.any(np.diff(t) <= 0)):
+            raise LogError(f"{path}: column 't' must rise strictly, over at least two rows")
+        return out
+
+
+def _first_bad(x: np.ndarray) -> int:
+    return int(np.flatnonzero(~np.isfinite(x))[0]) + 2  # the header is line 1
+
+
+@dataclass(frozen=True)
 class PlantSpec:
     name: str
     title: str
     params: tuple[Param, ...]
     signals: tuple[Signal, ...]  # measured: what an estimator may take as input
     truth: tuple[Signal, ...]  # true values an estimator's outputs are compared with
-    simulate: Callable[[Mapping[str, float], float, float, int], Trace]
+    simulate: Callable[[Mapping[str, Any], float, float, int], Trace]
     doc: str = ""
-    loop: Callable[[Mapping[str, float], float, int], LoopPlant] | None = None  # (params, T, seed)
+    loop: Callable[[Mapping[str, Any], float, int], LoopPlant] | None = None  # (params, T, seed)
     feedback: tuple[str, ...] = ()  # estimator outputs the loop plant acts on
+    files: tuple[FileInput, ...] = ()  # tables it can read instead of making them
 
-    def param_values(self, given: Mapping[str, float]) -> dict[str, float]:
-        return resolve_params(f"plant {self.name}", self.params, given)
+    def param_values(self, given: Mapping[str, Any]) -> dict[str, Any]:
+        """Numbers with their defaults, and each file input loaded (None if not given)."""
+        files = {f.name: f for f in self.files}
+        values: dict[str, Any] = resolve_params(
+            f"plant {self.name}", self.params, {k: v for k, v in given.items() if k not in files}
+        )
+        for name, f in files.items():
+            v = given.get(name)  # a path, or a table loaded already
+            values[name] = f.load(Path(v)) if isinstance(v, (str, Path)) else v
+        return values
 
-    def start_loop(self, params: Mapping[str, float], T: float, seed: int) -> LoopPlant:
+    def start_loop(self, params: Mapping[str, Any], T: float, seed: int) -> LoopPlant:
         if self.loop is None:
             raise ValueError(f"plant {self.name} cannot close a loop")
         return self.loop(self.param_values(params), T, seed)
 
-    def run(self, params: Mapping[str, float], duration: float, T: float, seed: int) -> Trace:
+    def run(self, params: Mapping[str, Any], duration: float, T: float, seed: int) -> Trace:
         trace = self.simulate(self.param_values(params), duration, T, seed)
         trace.units = {s.name: s.unit for s in (*self.signals, *self.truth)}
         return trace

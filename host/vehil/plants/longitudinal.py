@@ -29,8 +29,9 @@ the paper does: missing fixes interpolated, speed smoothed by eq. 28 (k = 4),
 distance integrated, grade by eq. 29, and the grade against *time* applied to the
 simulated car, resampled to the sample time linearly (`resample` = 0; its kinks every
 second make the outliers of note §9) or by a cubic spline (1; the paper does not say
-how it resampled); 1 flat; 2 the smooth grade
-5° sin(0.3 t) of note §9.
+how it resampled); `gps = "file.csv"` in a scenario's [plant] puts a real GPS log
+(columns t [s], speed [m/s], altitude [m]) through the same pipeline instead; 1 flat;
+2 the smooth grade 5° sin(0.3 t) of note §9.
 
 Drives (`profile`): 0 the paper's 75 s from rest (a throttle trace like Fig. 16's);
 1 strong throttle steps on a flat road; `dither` adds a small fast throttle dither
@@ -44,13 +45,14 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from scipy.interpolate import CubicSpline
 
 from vehil.estimators.base import Param, Signal
 from vehil.plants import register
-from vehil.plants.base import PlantSpec, Trace
+from vehil.plants.base import FileInput, PlantSpec, Trace
 
 # Table 1 and note §1.3.
 M, R_W, R_FD, K_B, I_EI, CDA, F_ROLL = 1250.0, 0.298, 4.1, 540.0, 0.16, 0.48, 0.015
@@ -181,12 +183,18 @@ def dither(n: int, T: float, amplitude: float, rng: np.random.Generator) -> np.n
     return out
 
 
-def _simulate(p: Mapping[str, float], duration: float, T: float, seed: int) -> Trace:
+def _simulate(p: Mapping[str, Any], duration: float, T: float, seed: int) -> Trace:
     rng = np.random.default_rng(seed)
     n = int(round(duration / T))
     t = np.arange(n) * T
     road = int(p["road"])
-    if road == 0:
+    gps = p.get("gps")
+    if gps is not None:
+        t_log = gps["t"] - gps["t"][0]
+        grade = np.deg2rad(
+            process_gps(t_log, gps["speed"], gps["altitude"], t, p["resample"] >= 0.5)
+        )
+    elif road == 0:
         grade = gps_road(duration, T, rng, p["resample"] >= 0.5).grade[:n]
     elif road == 1:
         grade = np.zeros(n)
@@ -272,5 +280,12 @@ SPEC = register(
             Signal("v_true", "m/s"),
         ),
         simulate=_simulate,
+        files=(
+            FileInput(
+                "gps",
+                (Signal("t", "s"), Signal("speed", "m/s"), Signal("altitude", "m")),
+                "a GPS log whose grade replaces the road's (note §5.1's pipeline)",
+            ),
+        ),
     )
 )

@@ -9,8 +9,9 @@ bias_hi] (m/s²) and white noise of variance noise_var; displacements are truth 
 
 Roads (`road`): 0 sinusoid (test 1), 1 pseudo-random multisine in [f_lo, f_hi] (test 2),
 2 ISO 8608 class `iso_class` (1 = A ... 8 = H) at `speed_kmh`, as a first-order shaping
-filter of white noise (the SIL's random road). A recorded profile from CSV goes through
-`csv_road` and `QuarterCarLoop(..., road=...)` / `simulate_with(...)`.
+filter of white noise (the SIL's random road). A recorded profile replaces them:
+`road_profile = "file.csv"` in a scenario's [plant] (columns t [s], x_r [m], linearly
+resampled; the last height holds past its end).
 
 Truth signals carry the estimators' names (x_s, v_s, x_us, v_us, x_r, F1, F2) and the
 comfort and limit figures (a_body, defl, tire_defl, u_applied).
@@ -18,18 +19,17 @@ comfort and limit figures (a_body, defl, tire_defl, u_applied).
 
 from __future__ import annotations
 
-import csv
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import replace
-from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from vehil.estimators._quarter_car import NOMINAL, QuarterCar
 from vehil.estimators.base import Param, Signal
 from vehil.plants import register
-from vehil.plants.base import PlantSpec, Trace
+from vehil.plants.base import FileInput, PlantSpec, Trace
 
 ISO_GD_N0 = 16e-6  # m³: class A's G_d(n0) at n0 = 0.1 cycle/m; each class is 4x the last
 ISO_N0 = 0.1  # cycle/m
@@ -63,8 +63,12 @@ def _stream(f: Callable[[np.ndarray], np.ndarray], dt: float) -> RoadFn:
     return take
 
 
-def make_road(p: Mapping[str, float], dt: float, rng: np.random.Generator) -> RoadFn:
+def make_road(p: Mapping[str, Any], dt: float, rng: np.random.Generator) -> RoadFn:
     """The configured road as a stream on the integration grid dt."""
+    profile = p.get("road_profile")
+    if profile is not None:
+        t_rec, h_rec = profile["t"] - profile["t"][0], profile["x_r"]
+        return _stream(lambda t: np.interp(t, t_rec, h_rec), dt)
     kind = int(p["road"])
     if kind == 0:
         a, w = p["road_amp"], 2 * math.pi * p["road_freq"]
@@ -95,21 +99,11 @@ def make_road(p: Mapping[str, float], dt: float, rng: np.random.Generator) -> Ro
     return take
 
 
-def csv_road(path: Path, dt: float, column: str = "x_r", time: str = "t") -> RoadFn:
-    """A recorded road profile (time and height columns), linearly resampled on the grid;
-    the last height holds past its end."""
-    with open(path, newline="") as f:
-        rows = list(csv.DictReader(f))
-    t = np.array([float(r[time]) for r in rows])
-    h = np.array([float(r[column]) for r in rows])
-    return _stream(lambda tt: np.interp(tt, t, h), dt)
-
-
 class QuarterCarLoop:
     """The car stepped one sample at a time: measure(), then apply({"u": force})."""
 
     def __init__(
-        self, p: Mapping[str, float], T: float, seed: int, road: RoadFn | None = None
+        self, p: Mapping[str, Any], T: float, seed: int, road: RoadFn | None = None
     ) -> None:
         self.p, self.T = p, T
         self.car = truth_model(p)
@@ -165,7 +159,7 @@ class QuarterCarLoop:
 
 
 def simulate_with(
-    p: Mapping[str, float],
+    p: Mapping[str, Any],
     duration: float,
     T: float,
     seed: int,
@@ -192,7 +186,7 @@ def simulate_with(
     )
 
 
-def _simulate(p: Mapping[str, float], duration: float, T: float, seed: int) -> Trace:
+def _simulate(p: Mapping[str, Any], duration: float, T: float, seed: int) -> Trace:
     return simulate_with(p, duration, T, seed)
 
 
@@ -242,6 +236,13 @@ SPEC = register(
         ),
         simulate=_simulate,
         loop=QuarterCarLoop,
+        files=(
+            FileInput(
+                "road_profile",
+                (Signal("t", "s"), Signal("x_r", "m")),
+                "a recorded road height profile",
+            ),
+        ),
         feedback=("u",),
     )
 )

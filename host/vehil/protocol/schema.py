@@ -36,6 +36,7 @@ class MessageType:
     type: int
     doc: str
     fields: tuple[Field, ...]
+    reply: str | None = None  # a request's answer besides ERROR
 
     @property
     def fixed(self) -> tuple[Field, ...]:
@@ -120,6 +121,7 @@ def load(path: Path = SCHEMA_PATH) -> Schema:
             type=m["type"],
             doc=m["doc"],
             fields=tuple(Field(f["name"], f["type"]) for f in m["fields"]),
+            reply=m.get("reply"),
         )
         for m in raw["message"]
     }

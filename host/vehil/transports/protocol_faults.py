@@ -1,9 +1,11 @@
-"""`faults://INNER?drop=P&flip=P&dup=P&insert=P&delay_ms=D&seed=N`: a port that breaks bytes.
+"""`faults://INNER?drop=P&flip=P&dup=P&insert=P&delay_ms=D&reboot_after=N&seed=N`: a port
+that breaks bytes.
 
 Wraps any other pyserial URL (a board's pty, `socket://...`, `native://`) and injects,
 at seeded rates per byte and in both directions: loss (`drop`), a flipped bit
 (`flip`), repetition (`dup`) and insertion of a random byte (`insert`); `delay_ms`
-holds each write back. It is AUTOSAR E2E's fault model at the byte level: what the
+holds each write back; `reboot_after` slips a reboot request in after that many
+writes, once (a board reset mid-run). It is AUTOSAR E2E's fault model at the byte level: what the
 link must detect and never turn into a wrong accepted result. `counts` says what
 was injected. Faults start when `arm()` is called (boards arm it once the session
 is up), so a run can be broken on purpose without breaking its start.
@@ -21,7 +23,13 @@ from collections import Counter
 import serial
 from serial.serialutil import PortNotOpenError, SerialBase, SerialException
 
+from vehil.protocol import frame
+from vehil.protocol.schema import SCHEMA
+
 KINDS = ("drop", "flip", "dup", "insert")
+_OPTIONS = ("delay_ms", "reboot_after", "seed")
+# RESET what=1 with a seq the host never uses for its own requests in flight.
+_REBOOT = frame.encode(SCHEMA.messages["RESET"].type, 0xFF, SCHEMA.messages["RESET"].pack(what=1))
 
 
 def parse_spec(spec: str) -> dict[str, float]:
@@ -29,9 +37,9 @@ def parse_spec(spec: str) -> dict[str, float]:
     out: dict[str, float] = {}
     for item in filter(None, (s.strip() for s in spec.replace("&", ",").split(","))):
         key, _, value = item.partition("=")
-        if key not in (*KINDS, "delay_ms", "seed"):
+        if key not in (*KINDS, *_OPTIONS):
             raise ValueError(
-                f"unknown fault {key!r}: use {', '.join(KINDS)}, delay_ms or seed (e.g. drop=1e-3)"
+                f"unknown fault {key!r}: use {', '.join((*KINDS, *_OPTIONS))} (e.g. drop=1e-3)"
             )
         try:
             out[key] = float(value)
@@ -68,6 +76,7 @@ class Serial(SerialBase):
         self._rng = random.Random(int(self.rates.get("seed", 0)))
         self.counts: Counter[str] = Counter()
         self.armed = False
+        self._writes = 0
         self._inner = serial.serial_for_url(inner, baudrate=self._baudrate, timeout=self._timeout)
         self.is_open = True
 
@@ -123,6 +132,11 @@ class Serial(SerialBase):
         if self.armed and self.rates.get("delay_ms"):
             time.sleep(self.rates["delay_ms"] / 1e3)
         self._inner.write(self._break(bytes(data), "to board"))
+        if self.armed and "reboot_after" in self.rates:
+            self._writes += 1
+            if self._writes == int(self.rates["reboot_after"]):
+                self._inner.write(_REBOOT)
+                self.counts["reboot"] += 1
         return len(data)
 
     def reset_input_buffer(self) -> None:
