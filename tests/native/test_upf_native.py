@@ -11,6 +11,7 @@ from vehil.estimators import upf
     ("name", "duration"),
     [
         ("s1-dlc80-ekf", 20.0),
+        ("s1-dlc80-ekf3", 20.0),
         ("s1-dlc80-ukf", 20.0),
         ("s2-sine80-ekf", 10.0),
         ("s3-tcs-low-mu-ekf", 20.0),
@@ -32,6 +33,7 @@ def test_c_follows_the_reference(run_scenario, name, duration) -> None:  # noqa:
     [
         (upf.EKF, "mu", 2.0),
         (upf.EKF, "r_clip", 0.5),
+        (upf.EKF3, "vx0", 0.1),
         (upf.UKF, "q_f", -1.0),
         (upf.UKF, "alpha", 0.0),
     ],

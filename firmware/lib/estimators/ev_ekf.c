@@ -1,7 +1,5 @@
 #include "estimators/ev_ekf.h"
 
-#include <string.h>
-
 #include "linalg/mat_f32.h"
 
 static void ev_ekf_reset(void *state)
@@ -26,8 +24,12 @@ static uint8_t ev_ekf_configure(void *state, uint8_t mode, const uint8_t *params
 static void predict(ev_ekf_state_t *s)
 {
     const float *p = s->model.p;
-    ev_jacobians(&s->model, s->x, &s->u_prev, s->F, NULL);
-    ev_step(&s->model, s->x, &s->u_prev);
+    ev_wheels_t w;
+    ev_slopes_t d;
+    ev_wheels(s->x, &s->u_prev, s->model.mu, &w);
+    ev_slopes(&s->u_prev, s->model.mu, &w, &d);
+    ev_jacobians(&s->model, s->x, &s->u_prev, &w, &d, s->F, NULL);
+    ev_step(&s->model, s->x, &s->u_prev, &w);
     mat_mul_f32(s->F, s->P, EV_NX, EV_NX, EV_NX, s->tmp);
     mat_mul_bt_f32(s->tmp, s->F, EV_NX, EV_NX, EV_NX, s->P);
     const float q[3] = {p[EV_P_QV], p[EV_P_QVY], p[EV_P_QR]};
@@ -36,38 +38,21 @@ static void predict(ev_ekf_state_t *s)
     }
 }
 
-/* y_j one at a time: with R diagonal this is the batch update at the predicted x. */
 static void update(ev_ekf_state_t *s, const ev_inputs_t *u)
 {
-    float r[EV_NY], y[EV_NY], x_pred[EV_NX], ph[EV_NX];
+    float r[EV_NY], e[EV_NY];
     float *H = s->F;
-    ev_noise(&s->model, s->x, u, r);
-    ev_jacobians(&s->model, s->x, u, NULL, H);
-    ev_h(&s->model, s->x, u, y);
-    memcpy(x_pred, s->x, sizeof x_pred);
+    ev_wheels_t w;
+    ev_slopes_t d;
+    ev_wheels(s->x, u, s->model.mu, &w);
+    ev_slopes(u, s->model.mu, &w, &d);
+    ev_noise(&s->model, u, &w, r);
+    ev_jacobians(&s->model, s->x, u, &w, &d, NULL, H);
+    ev_h(s->x, s->x + 3, u, &w, e);
     for (uint8_t j = 0; j < EV_NY; j++) {
-        const float *hj = H + j * EV_NX;
-        float e = u->y[j] - y[j], sum = r[j];
-        for (uint8_t i = 0; i < EV_NX; i++) {
-            float acc = 0.0f;
-            for (uint8_t k = 0; k < EV_NX; k++) {
-                acc += s->P[i * EV_NX + k] * hj[k];
-            }
-            ph[i] = acc;
-            e -= hj[i] * (s->x[i] - x_pred[i]);
-        }
-        for (uint8_t i = 0; i < EV_NX; i++) {
-            sum += hj[i] * ph[i];
-        }
-        float inv = 1.0f / sum;
-        for (uint8_t i = 0; i < EV_NX; i++) {
-            float k = ph[i] * inv;
-            s->x[i] += k * e;
-            for (uint8_t c = 0; c < EV_NX; c++) {
-                s->P[i * EV_NX + c] -= k * ph[c];
-            }
-        }
+        e[j] = u->y[j] - e[j];
     }
+    ev_ekf_correct(s->x, s->P, EV_NX, H, e, r);
 }
 
 static uint8_t ev_ekf_step(void *state, const uint8_t *in, uint8_t in_len, uint8_t *out,
@@ -83,16 +68,11 @@ static uint8_t ev_ekf_step(void *state, const uint8_t *in, uint8_t in_len, uint8
             predict(s);
         }
         update(s, &u);
-        for (uint8_t i = 0; i < EV_NX; i++) { /* keep P symmetric against round-off */
-            for (uint8_t j = 0; j < i; j++) {
-                float m = 0.5f * (s->P[i * EV_NX + j] + s->P[j * EV_NX + i]);
-                s->P[i * EV_NX + j] = s->P[j * EV_NX + i] = m;
-            }
-        }
+        ev_symmetrize(s->P, EV_NX);
         s->u_prev = u;
         s->started = 1;
     }
-    return (uint8_t)(status | ev_outputs(s->x, out));
+    return (uint8_t)(status | ev_outputs(s->x, s->x + 3, out));
 }
 
 const estimator_t ev_ekf_estimator = {

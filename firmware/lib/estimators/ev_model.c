@@ -23,9 +23,9 @@
 #define BY 10.0f
 #define CY 1.3f
 #define BXA 10.0f
-#define CXA 1.0f
 #define BYK 10.0f
-#define CYK 1.0f
+/* C_xα = C_yκ = 1 (host CXA, CYK), so cos(C atan z) = 1/√(1+z²) and sin(C atan z) =
+ * z/√(1+z²): a square root instead of an atan and a cos, on a core without an FPU. */
 #define SIGMA (60000.0f / 150000.0f)
 #define TAU_WDOT 0.02f
 
@@ -118,60 +118,94 @@ void ev_wheels(const float *x, const ev_inputs_t *u, float mu, ev_wheels_t *w)
         float vX = x[0] - byw[i] * x[2], vY = x[1] + lx[i] * x[2];
         float vix = cd * vX + sd * vY, viy = -sd * vX + cd * vY;
         float alpha = -atanf(viy / fmaxf_(fabsf(vix), 0.5f));
-        float dmax = mu * u->fz[i];
-        /* (27)-(28): κ̂ = F_x / (G_xα B_x C_x D_x) */
-        float kappa = u->fx[i] / (cosf(CXA * atanf(BXA * alpha)) * BX * CX * fmaxf_(dmax, 1.0f));
+        float dmax = mu * u->fz[i], bxa = BXA * alpha;
+        /* (27)-(28): κ̂ = F_x / (G_xα B_x C_x D_x), G_xα = 1/√(1+(B_xα α)²) */
+        float kappa = u->fx[i] * sqrtf(1.0f + bxa * bxa) / (BX * CX * fmaxf_(dmax, 1.0f));
+        float ba = BY * alpha, ty = CY * atanf(ba), bk = BYK * kappa;
         /* (15), (17), (19) with E_y = 0 and S_H = 0 */
-        w->fy_qs[i] = cosf(CYK * atanf(BYK * kappa)) * dmax * sinf(CY * atanf(BY * alpha));
+        w->fy_qs[i] = dmax * sinf(ty) / sqrtf(1.0f + bk * bk);
         w->vix[i] = vix;
+        w->viy[i] = viy;
         w->alpha[i] = alpha;
         w->kappa[i] = kappa;
+        w->ba[i] = ba;
+        w->ty[i] = ty;
     }
 }
 
-/* F_x, F_y, M at the CG (eqs. 1-4) with the resistances (3). */
-static void body_forces(const float *x, const ev_inputs_t *u, float *fxyz)
+void ev_slopes(const ev_inputs_t *u, float mu, const ev_wheels_t *w, ev_slopes_t *d)
+{
+    for (uint8_t i = 0; i < 4u; i++) {
+        float cd = cd_of(u, i), sd = sd_of(u, i);
+        const float L[3] = {cd, sd, -byw[i] * cd + lx[i] * sd};
+        const float dviy[3] = {-sd, cd, sd * byw[i] + cd * lx[i]};
+        /* α = -atan(v_iy / max(|v_ix|, 0.5)) */
+        float vix = w->vix[i], viy = w->viy[i], avix = fabsf(vix);
+        float sgn = vix > 0.0f ? 1.0f : (vix < 0.0f ? -1.0f : 0.0f);
+        float den = fmaxf_(avix, 0.5f), zz = viy / den;
+        float g = 1.0f / (den * (1.0f + zz * zz));
+        for (uint8_t j = 0; j < 3u; j++) {
+            float dden = avix > 0.5f ? sgn * L[j] : 0.0f;
+            d->dalpha[i][j] = -(dviy[j] - zz * dden) * g;
+        }
+        /* κ̂ = F_x / (G_xα(α) k): dκ̂/dα = -κ̂ G_xα' / G_xα = κ̂ B_xα² α / (1 + (B_xα α)²) */
+        float k = w->kappa[i], bxa = BXA * w->alpha[i], ba = w->ba[i], bk = BYK * k;
+        float dk = k * BXA * bxa / (1.0f + bxa * bxa);
+        float dmax = mu * u->fz[i];
+        float f0 = dmax * sinf(w->ty[i]);
+        float df0 = dmax * CY * BY * cosf(w->ty[i]) / (1.0f + ba * ba);
+        float inv = 1.0f / (1.0f + bk * bk), g_yk = sqrtf(inv); /* G_yκ = 1/√(1+(B_yκ κ̂)²) */
+        float dg_yk = -bk * g_yk * BYK * inv;
+        d->dk[i] = dk;
+        d->dqs[i] = g_yk * df0 + f0 * dg_yk * dk; /* d(G_yκ F_y0)/dα */
+    }
+}
+
+/* (ΣF_X - resistances) / m, ΣF_Y / m, M_z / I_z (eqs. 1-4, 3) */
+static void accels(const float *x, const float *fy, const ev_inputs_t *u, float *acc)
 {
     float sx = 0.0f, sy = 0.0f, mz = 0.0f;
     for (uint8_t i = 0; i < 4u; i++) {
         float cd = cd_of(u, i), sd = sd_of(u, i);
-        float fX = cd * u->fx[i] - sd * x[3u + i], fY = sd * u->fx[i] + cd * x[3u + i];
+        float fX = cd * u->fx[i] - sd * fy[i], fY = sd * u->fx[i] + cd * fy[i];
         sx += fX;
         sy += fY;
         mz += lx[i] * fY - byw[i] * fX;
     }
     float vx = x[0];
-    fxyz[0] = sx - (DRAG * vx * fabsf(vx) + ROLL * tanhf(vx / 0.5f));
-    fxyz[1] = sy;
-    fxyz[2] = mz;
+    acc[0] = (sx - (DRAG * vx * fabsf(vx) + ROLL * tanhf(vx / 0.5f))) / M_VEH;
+    acc[1] = sy / M_VEH;
+    acc[2] = mz / I_Z;
 }
 
-void ev_step(const ev_model_t *m, float *x, const ev_inputs_t *u)
+void ev_body_rates(const float *x, const float *fy, const ev_inputs_t *u, float *rates)
 {
-    float b[3];
-    ev_wheels_t w;
-    body_forces(x, u, b);
-    ev_wheels(x, u, m->mu, &w);
-    const float d0 = b[0] / M_VEH + x[2] * x[1], d1 = b[1] / M_VEH - x[2] * x[0], d2 = b[2] / I_Z;
+    accels(x, fy, u, rates);
+    rates[0] += x[2] * x[1];
+    rates[1] -= x[2] * x[0];
+}
+
+void ev_step(const ev_model_t *m, float *x, const ev_inputs_t *u, const ev_wheels_t *w)
+{
+    float d[3];
+    ev_body_rates(x, x + 3, u, d);
     for (uint8_t i = 0; i < 4u; i++) { /* (20) */
-        x[3u + i] += m->T * fabsf(w.vix[i]) / SIGMA * (w.fy_qs[i] - x[3u + i]);
+        x[3u + i] += m->T * fabsf(w->vix[i]) / SIGMA * (w->fy_qs[i] - x[3u + i]);
     }
-    x[0] += m->T * d0;
-    x[1] += m->T * d1;
-    x[2] += m->T * d2;
+    for (uint8_t i = 0; i < 3u; i++) {
+        x[i] += m->T * d[i];
+    }
 }
 
-void ev_h(const ev_model_t *m, const float *x, const ev_inputs_t *u, float *y)
+void ev_h(const float *x, const float *fy, const ev_inputs_t *u, const ev_wheels_t *w, float *y)
 {
-    float b[3];
-    ev_wheels_t w;
-    body_forces(x, u, b);
-    ev_wheels(x, u, m->mu, &w);
-    y[0] = b[0] / M_VEH;
-    y[1] = b[1] / M_VEH;
+    float acc[3];
+    accels(x, fy, u, acc);
+    y[0] = acc[0];
+    y[1] = acc[1];
     y[2] = x[2];
     for (uint8_t i = 0; i < 4u; i++) { /* (29) */
-        y[3u + i] = w.vix[i] * (1.0f + w.kappa[i]) / R_W;
+        y[3u + i] = w->vix[i] * (1.0f + w->kappa[i]) / R_W;
     }
 }
 
@@ -181,10 +215,20 @@ static float resist_slope(float vx)
     return 2.0f * DRAG * fabsf(vx) + ROLL * (1.0f - t * t) / 0.5f;
 }
 
-void ev_jacobians(const ev_model_t *m, const float *x, const ev_inputs_t *u, float *F, float *H)
+/* Row i of ∂ω/∂(v_x, v_y, γ) (29) into h (stride 1). */
+static void omega_row(const ev_inputs_t *u, const ev_wheels_t *w, const ev_slopes_t *d,
+                      uint8_t i, float *h)
 {
-    ev_wheels_t w;
-    ev_wheels(x, u, m->mu, &w);
+    float cd = cd_of(u, i), sd = sd_of(u, i);
+    const float L[3] = {cd, sd, -byw[i] * cd + lx[i] * sd};
+    for (uint8_t j = 0; j < 3u; j++) {
+        h[j] = (L[j] * (1.0f + w->kappa[i]) + w->vix[i] * d->dk[i] * d->dalpha[i][j]) / R_W;
+    }
+}
+
+void ev_jacobians(const ev_model_t *m, const float *x, const ev_inputs_t *u,
+                  const ev_wheels_t *w, const ev_slopes_t *d, float *F, float *H)
+{
     float rs = resist_slope(x[0]) / M_VEH;
     if (H != NULL) {
         memset(H, 0, EV_NY * EV_NX * sizeof(float));
@@ -201,30 +245,13 @@ void ev_jacobians(const ev_model_t *m, const float *x, const ev_inputs_t *u, flo
     }
     for (uint8_t i = 0; i < 4u; i++) {
         float cd = cd_of(u, i), sd = sd_of(u, i);
-        const float L[3] = {cd, sd, -byw[i] * cd + lx[i] * sd};
         uint8_t c = (uint8_t)(3u + i);
-        /* ∂α/∂V, α = -atan(v_iy / max(|v_ix|, 0.5)) */
-        float vix = w.vix[i], avix = fabsf(vix), sgn = vix > 0.0f ? 1.0f : (vix < 0.0f ? -1.0f : 0.0f);
-        float vX = x[0] - byw[i] * x[2], vY = x[1] + lx[i] * x[2];
-        float viy = -sd * vX + cd * vY;
-        float den = fmaxf_(avix, 0.5f), zz = viy / den;
-        const float dviy[3] = {-sd, cd, sd * byw[i] + cd * lx[i]};
-        float dalpha[3];
-        for (uint8_t j = 0; j < 3u; j++) {
-            float dden = avix > 0.5f ? sgn * L[j] : 0.0f;
-            dalpha[j] = -(dviy[j] / den - viy / (den * den) * dden) / (1.0f + zz * zz);
-        }
-        /* κ̂ = F_x / (G_xα(α) k): dκ̂/dα = -κ̂ G_xα' / G_xα */
-        float a = w.alpha[i], k = w.kappa[i];
-        float ba = BY * a, bxa = BXA * a, bk = BYK * k;
-        float t_xa = CXA * atanf(bxa);
-        float dk = k * sinf(t_xa) * CXA * BXA / (1.0f + bxa * bxa) / cosf(t_xa);
         if (H != NULL) {
             H[c] = -sd / M_VEH;
             H[EV_NX + c] = cd / M_VEH;
-            for (uint8_t j = 0; j < 3u; j++) {
-                H[c * EV_NX + j] = (L[j] * (1.0f + k) + vix * dk * dalpha[j]) / R_W;
-            }
+            float row[3];
+            omega_row(u, w, d, i, row);
+            memcpy(H + c * EV_NX, row, sizeof row);
         }
         if (F == NULL) {
             continue;
@@ -233,15 +260,12 @@ void ev_jacobians(const ev_model_t *m, const float *x, const ev_inputs_t *u, flo
         F[EV_NX + c] = cd / M_VEH;
         F[2 * EV_NX + c] = (lx[i] * cd + byw[i] * sd) / I_Z;
         /* Row of F̃_iy: ∂/∂V of |v_ix|/σ (G_yκ(κ̂) F_y0(α) - F̃). */
-        float dmax = m->mu * u->fz[i];
-        float t_y = CY * atanf(ba), t_k = CYK * atanf(bk);
-        float f0 = dmax * sinf(t_y);
-        float df0 = dmax * CY * BY * cosf(t_y) / (1.0f + ba * ba);
-        float dg_yk = -sinf(t_k) * CYK * BYK / (1.0f + bk * bk);
-        float dqs = cosf(t_k) * df0 + f0 * dg_yk * dk;
-        float q = w.fy_qs[i] - x[c];
+        const float L[3] = {cd, sd, -byw[i] * cd + lx[i] * sd};
+        float vix = w->vix[i], avix = fabsf(vix);
+        float sgn = vix > 0.0f ? 1.0f : (vix < 0.0f ? -1.0f : 0.0f);
+        float q = w->fy_qs[i] - x[c];
         for (uint8_t j = 0; j < 3u; j++) {
-            F[c * EV_NX + j] = (sgn * L[j] * q + avix * dqs * dalpha[j]) / SIGMA;
+            F[c * EV_NX + j] = (sgn * L[j] * q + avix * d->dqs[i] * d->dalpha[i][j]) / SIGMA;
         }
         F[c * EV_NX + c] = -avix / SIGMA;
     }
@@ -255,13 +279,51 @@ void ev_jacobians(const ev_model_t *m, const float *x, const ev_inputs_t *u, flo
     }
 }
 
+void ev_jacobians3(const ev_model_t *m, const float *x, const ev_inputs_t *u,
+                   const ev_wheels_t *w, const ev_slopes_t *d, float *F, float *H)
+{
+    /* ∂(ΣF_X, ΣF_Y, M_z)/∂V through the quasi-static forces' dF_y/dα ∂α/∂V */
+    float J[3][3] = {{0.0f}};
+    for (uint8_t i = 0; i < 4u; i++) {
+        float cd = cd_of(u, i), sd = sd_of(u, i);
+        const float arm[3] = {-sd, cd, lx[i] * cd + byw[i] * sd};
+        for (uint8_t j = 0; j < 3u; j++) {
+            float dfy = d->dqs[i] * d->dalpha[i][j];
+            for (uint8_t r = 0; r < 3u; r++) {
+                J[r][j] += arm[r] * dfy;
+            }
+        }
+        if (H != NULL) {
+            omega_row(u, w, d, i, H + (3u + i) * 3u);
+        }
+    }
+    float rs = resist_slope(x[0]) / M_VEH;
+    if (H != NULL) {
+        for (uint8_t j = 0; j < 3u; j++) {
+            H[j] = J[0][j] / M_VEH;
+            H[3u + j] = J[1][j] / M_VEH;
+            H[6u + j] = j == 2u ? 1.0f : 0.0f;
+        }
+        H[0] -= rs;
+    }
+    if (F != NULL) {
+        const float coupling[3][3] = {{-rs, x[2], x[1]}, {-x[2], 0.0f, -x[0]}, {0.0f}};
+        for (uint8_t r = 0; r < 3u; r++) {
+            float div = r == 2u ? I_Z : M_VEH;
+            for (uint8_t j = 0; j < 3u; j++) {
+                F[r * 3u + j] = (r == j ? 1.0f : 0.0f) + m->T * (J[r][j] / div + coupling[r][j]);
+            }
+        }
+    }
+}
+
 static float clip(float r, float fixed, float c)
 {
     float lo = fixed / c, hi = fixed * c;
     return r < lo ? lo : (r > hi ? hi : r);
 }
 
-void ev_noise(const ev_model_t *m, const float *x, const ev_inputs_t *u, float *r)
+void ev_noise(const ev_model_t *m, const ev_inputs_t *u, const ev_wheels_t *w, float *r)
 {
     const float *p = m->p;
     r[0] = p[EV_P_RAX];
@@ -273,13 +335,11 @@ void ev_noise(const ev_model_t *m, const float *x, const ev_inputs_t *u, float *
     if (!m->adaptive) {
         return;
     }
-    ev_wheels_t w;
-    ev_wheels(x, u, m->mu, &w);
     float ax = fabsf(u->y[0]), ay = fabsf(u->y[1]), gz = fabsf(u->y[2]), dl = fabsf(u->delta);
     float sfx = 0.0f, sk = 0.0f;
     for (uint8_t i = 0; i < 4u; i++) {
         sfx += fabsf(u->fx[i]);
-        sk += fabsf(w.kappa[i]);
+        sk += fabsf(w->kappa[i]);
     }
     float c = p[EV_P_RCLIP];
     /* (66)-(69), c_j as fractions of the fixed r */
@@ -289,7 +349,7 @@ void ev_noise(const ev_model_t *m, const float *x, const ev_inputs_t *u, float *
     float r_gz = p[EV_P_CGZ] * r[2] / 2.0f * (expf(-p[EV_P_DGZ1] * gz) + expf(-p[EV_P_DGZ2] * dl));
     float common = expf(p[EV_P_DW2] * ax) + expf(p[EV_P_DW3] * ay);
     for (uint8_t i = 0; i < 4u; i++) {
-        float k = fabsf(w.kappa[i]);
+        float k = fabsf(w->kappa[i]);
         float r_w = p[EV_P_CW] * p[EV_P_RW] / 3.0f * (expf(p[EV_P_DW1] * (k < 1.0f ? k : 1.0f)) + common);
         r[3u + i] = clip(r_w, p[EV_P_RW], c);
     }
@@ -311,12 +371,53 @@ void ev_prior(const ev_model_t *m, float *x, float *P)
     }
 }
 
-uint8_t ev_outputs(const float *x, uint8_t *out)
+void ev_ekf_correct(float *x, float *P, uint8_t n, const float *H, const float *e,
+                    const float *r)
+{
+    float x_pred[EV_NX], ph[EV_NX];
+    memcpy(x_pred, x, n * sizeof(float));
+    for (uint8_t j = 0; j < EV_NY; j++) {
+        const float *hj = H + j * n;
+        float ej = e[j], sum = r[j];
+        for (uint8_t i = 0; i < n; i++) {
+            float acc = 0.0f;
+            for (uint8_t k = 0; k < n; k++) {
+                acc += P[i * n + k] * hj[k];
+            }
+            ph[i] = acc;
+            ej -= hj[i] * (x[i] - x_pred[i]);
+        }
+        for (uint8_t i = 0; i < n; i++) {
+            sum += hj[i] * ph[i];
+        }
+        float inv = 1.0f / sum;
+        for (uint8_t i = 0; i < n; i++) {
+            float k = ph[i] * inv;
+            x[i] += k * ej;
+            for (uint8_t c = 0; c < n; c++) {
+                P[i * n + c] -= k * ph[c];
+            }
+        }
+    }
+}
+
+void ev_symmetrize(float *P, uint8_t n)
+{
+    for (uint8_t i = 0; i < n; i++) {
+        for (uint8_t j = 0; j < i; j++) {
+            float m = 0.5f * (P[i * n + j] + P[j * n + i]);
+            P[i * n + j] = P[j * n + i] = m;
+        }
+    }
+}
+
+uint8_t ev_outputs(const float *x, const float *fy, uint8_t *out)
 {
     uint8_t status = 0;
     for (uint8_t i = 0; i < EV_NX; i++) {
-        put_f32(out + 4u * i, x[i]);
-        if (!isfinite(x[i])) {
+        float v = i < 3u ? x[i] : fy[i - 3u];
+        put_f32(out + 4u * i, v);
+        if (!isfinite(v)) {
             status = STATUS_NOT_FINITE;
         }
     }

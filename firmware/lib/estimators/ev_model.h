@@ -42,10 +42,17 @@ typedef struct {
     uint8_t have_w, adaptive;
 } ev_model_t;
 
-/* Per-wheel terms at one state. */
+/* Per-wheel terms at one state; every model function below takes them, so a filter
+ * evaluates the tires once per linearisation point or sigma point. */
 typedef struct {
-    float vix[4], alpha[4], fy_qs[4], kappa[4];
+    float vix[4], viy[4], alpha[4], fy_qs[4], kappa[4];
+    float ba[4], ty[4]; /* B_y α and C_y atan(B_y α), for the slopes */
 } ev_wheels_t;
+
+/* Their slopes: ∂α_i/∂(v_x, v_y, γ), dκ̂_i/dα_i and dF_y,qs,i/dα_i (κ̂'s α-dependence in). */
+typedef struct {
+    float dalpha[4][3], dk[4], dqs[4];
+} ev_slopes_t;
 
 /* 0 if the n = EV_N_PARAMS + n_own parameters are in range (own ones after the shared),
  * else 1 + the first bad index. Stores them and resets the input filter. */
@@ -58,15 +65,31 @@ void ev_model_reset(ev_model_t *m);
 uint8_t ev_model_inputs(ev_model_t *m, const uint8_t *in, ev_inputs_t *u);
 
 void ev_wheels(const float *x, const ev_inputs_t *u, float mu, ev_wheels_t *w);
-/* x + T ẋ, in place. */
-void ev_step(const ev_model_t *m, float *x, const ev_inputs_t *u);
-void ev_h(const ev_model_t *m, const float *x, const ev_inputs_t *u, float *y);
-/* F = I + T ∂f/∂x and H = ∂h/∂x, analytic as on the host; either may be NULL. */
-void ev_jacobians(const ev_model_t *m, const float *x, const ev_inputs_t *u, float *F, float *H);
-/* diag R, fixed or by (66)-(69) with κ̂ at x. */
-void ev_noise(const ev_model_t *m, const float *x, const ev_inputs_t *u, float *r);
+void ev_slopes(const ev_inputs_t *u, float mu, const ev_wheels_t *w, ev_slopes_t *d);
+/* v̇_x, v̇_y, γ̇ (eqs. 1-7) with the tire-frame lateral forces fy: the 7-state model's
+ * F̃_iy (x + 3) or the 3-state model's quasi-static ones (w->fy_qs). */
+void ev_body_rates(const float *x, const float *fy, const ev_inputs_t *u, float *rates);
+/* 7 states: x + T ẋ, in place (w at x). */
+void ev_step(const ev_model_t *m, float *x, const ev_inputs_t *u, const ev_wheels_t *w);
+/* y = h(x) with lateral forces fy (as for ev_body_rates). */
+void ev_h(const float *x, const float *fy, const ev_inputs_t *u, const ev_wheels_t *w, float *y);
+/* 7 states: F = I + T ∂f/∂x and H = ∂h/∂x (row-major 7×7), analytic as on the host;
+ * either may be NULL. */
+void ev_jacobians(const ev_model_t *m, const float *x, const ev_inputs_t *u,
+                  const ev_wheels_t *w, const ev_slopes_t *d, float *F, float *H);
+/* 3 states (lateral forces quasi-static): F (3×3) and H (7×3). */
+void ev_jacobians3(const ev_model_t *m, const float *x, const ev_inputs_t *u,
+                   const ev_wheels_t *w, const ev_slopes_t *d, float *F, float *H);
+/* diag R, fixed or by (66)-(69) with κ̂ at the estimate (w). */
+void ev_noise(const ev_model_t *m, const ev_inputs_t *u, const ev_wheels_t *w, float *r);
 void ev_prior(const ev_model_t *m, float *x, float *P);
-/* Writes x and β; STATUS_NOT_FINITE if one is not finite. */
-uint8_t ev_outputs(const float *x, uint8_t *out);
+/* EKF correction with y_j one at a time (R diagonal, so this is the batch update at the
+ * predicted x): x (n), P (n×n), H (EV_NY×n), innovations e = y - h(x_pred), r = diag R. */
+void ev_ekf_correct(float *x, float *P, uint8_t n, const float *H, const float *e,
+                    const float *r);
+/* P = (P + Pᵀ) / 2, against round-off. */
+void ev_symmetrize(float *P, uint8_t n);
+/* Writes v_x, v_y, γ, the lateral forces fy and β; STATUS_NOT_FINITE if one is not finite. */
+uint8_t ev_outputs(const float *x, const float *fy, uint8_t *out);
 
 #endif

@@ -86,7 +86,9 @@ static uint8_t predict(ev_ukf_state_t *s)
         return STATUS_SINGULAR;
     }
     for (uint8_t j = 0; j < EV_UKF_NS; j++) {
-        ev_step(&s->model, s->chi[j], &s->u_prev);
+        ev_wheels_t w;
+        ev_wheels(s->chi[j], &s->u_prev, s->model.mu, &w);
+        ev_step(&s->model, s->chi[j], &s->u_prev, &w);
     }
     mean(s, (const float (*)[EV_NX])s->chi, s->x);
     cov(s, (const float (*)[EV_NX])s->chi, s->x, (const float (*)[EV_NX])s->chi, s->x, s->P);
@@ -101,12 +103,15 @@ static uint8_t predict(ev_ukf_state_t *s)
 static uint8_t update(ev_ukf_state_t *s, const ev_inputs_t *u)
 {
     float r[EV_NY], y[EV_NY];
-    ev_noise(&s->model, s->x, u, r);
+    ev_wheels_t w;
+    ev_wheels(s->x, u, s->model.mu, &w);
+    ev_noise(&s->model, u, &w, r);
     if (!sigma_points(s)) {
         return STATUS_SINGULAR;
     }
     for (uint8_t j = 0; j < EV_UKF_NS; j++) {
-        ev_h(&s->model, s->chi[j], u, s->Y[j]);
+        ev_wheels(s->chi[j], u, s->model.mu, &w);
+        ev_h(s->chi[j], s->chi[j] + 3, u, &w, s->Y[j]);
     }
     mean(s, (const float (*)[EV_NX])s->Y, y);
     cov(s, (const float (*)[EV_NX])s->Y, y, (const float (*)[EV_NX])s->Y, y, s->S);
@@ -177,16 +182,11 @@ static uint8_t ev_ukf_step(void *state, const uint8_t *in, uint8_t in_len, uint8
             status |= STATUS_SINGULAR;
             diagonal_only(s->P);
         }
-        for (uint8_t i = 0; i < EV_NX; i++) { /* keep P symmetric against round-off */
-            for (uint8_t j = 0; j < i; j++) {
-                float m = 0.5f * (s->P[i * EV_NX + j] + s->P[j * EV_NX + i]);
-                s->P[i * EV_NX + j] = s->P[j * EV_NX + i] = m;
-            }
-        }
+        ev_symmetrize(s->P, EV_NX);
         s->u_prev = u;
         s->started = 1;
     }
-    return (uint8_t)(status | ev_outputs(s->x, out));
+    return (uint8_t)(status | ev_outputs(s->x, s->x + 3, out));
 }
 
 const estimator_t ev_ukf_estimator = {

@@ -188,11 +188,14 @@ def wheels(x: np.ndarray, u: Inputs, mu: float) -> Wheels:
     return Wheels(vix, alpha, fy_qs, kappa)
 
 
-def body_forces(x: np.ndarray, u: Inputs) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """F_x, F_y, M at the CG (4) with the resistances (3), θ = 0."""
+def body_forces(
+    x: np.ndarray, u: Inputs, fy: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """F_x, F_y, M at the CG (4) with the resistances (3), θ = 0, from the tire-frame
+    lateral forces fy: the states F̃_iy unless given (the 3-state model's quasi-static ones)."""
     d = u.delta * STEERED
     cd, sd = np.cos(d), np.sin(d)
-    fy = x[..., 3:7]
+    fy = x[..., 3:7] if fy is None else fy
     fX = cd * u.fx - sd * fy  # (1)-(2)
     fY = sd * u.fx + cd * fy
     vx = x[..., 0]
@@ -216,12 +219,21 @@ def step(x: np.ndarray, u: Inputs, mu: float, T: float) -> np.ndarray:
     return x + T * f(x, u, mu)
 
 
-def h(x: np.ndarray, u: Inputs, mu: float) -> np.ndarray:
-    """y (30): a_x, a_y, γ, ω_i = v_ix (1 + κ̂_i) / R."""
-    fx, fy, _ = body_forces(x, u)
+def h(x: np.ndarray, u: Inputs, mu: float, quasi_static: bool = False) -> np.ndarray:
+    """y (30): a_x, a_y, γ, ω_i = v_ix (1 + κ̂_i) / R; with quasi_static, x is [v_x, v_y, γ]
+    and the lateral forces are G_yκ F_y0 at x."""
     w = wheels(x, u, mu)
+    fx, fy, _ = body_forces(x, u, w.fy_qs if quasi_static else None)
     om = w.vix * (1 + w.kappa) / R_W
     return np.concatenate([np.stack([fx / M, fy / M, x[..., 2]], axis=-1), om], axis=-1)
+
+
+def step3(x: np.ndarray, u: Inputs, mu: float, T: float) -> np.ndarray:
+    """The 3-state model [v_x, v_y, γ]: (26)'s first three rows, the lateral forces
+    quasi-static (G_yκ F_y0 at x: (20) at steady state)."""
+    fx, fy, mz = body_forces(x, u, wheels(x, u, mu).fy_qs)
+    vx, vy, r = x[..., 0], x[..., 1], x[..., 2]
+    return x + T * np.stack([fx / M + r * vy, fy / M - r * vx, mz / I_Z], axis=-1)
 
 
 def adaptive_r(u: Inputs, kappa: np.ndarray, p: Mapping[str, float]) -> np.ndarray:
@@ -274,13 +286,61 @@ def _resist_slope(vx: float) -> float:
     return 2 * DRAG * abs(vx) + M * G * F_ROLL * (1 - math.tanh(vx / 0.5) ** 2) / 0.5
 
 
+@dataclass(frozen=True)
+class Slopes:
+    """∂α_i/∂(v_x, v_y, γ) (4, 3), dκ̂_i/dα_i and d(G_yκ F_y0)_i/dα_i (4 each) at one state."""
+
+    dalpha: np.ndarray
+    dk: np.ndarray
+    dqs: np.ndarray
+
+
+def slopes(x: np.ndarray, u: Inputs, mu: float, w: Wheels) -> Slopes:
+    """κ̂'s dependence on α through G_xα (28) included. E_y = 0, so
+    dF_y0/dα = D C B cos(C atan(Bα)) / (1 + (Bα)²)."""
+    vx, vy, r = x[:3]
+    d = u.delta * STEERED
+    cd, sd = np.cos(d), np.sin(d)
+    vX, vY = vx - BYW * r, vy + LX * r
+    viy = -sd * vX + cd * vY
+    den = np.maximum(np.abs(w.vix), 0.5)
+    sgn = np.sign(w.vix)
+    dalpha, dks, dqss = np.zeros((4, 3)), np.zeros(4), np.zeros(4)
+    for i in range(4):
+        L = np.array([cd[i], sd[i], -BYW[i] * cd[i] + LX[i] * sd[i]])
+        dviy = np.array([-sd[i], cd[i], sd[i] * BYW[i] + cd[i] * LX[i]])
+        dden = sgn[i] * L if abs(w.vix[i]) > 0.5 else np.zeros(3)
+        zz = viy[i] / den[i]
+        dalpha[i] = -(dviy / den[i] - viy[i] / den[i] ** 2 * dden) / (1 + zz * zz)
+        a, k = float(w.alpha[i]), float(w.kappa[i])
+        ba, bxa, bk = BY * a, BXA * a, BYK * k
+        # κ̂ = F_x / (G_xα(α) k): dκ̂/dα = -κ̂ G_xα' / G_xα
+        g_xa = math.cos(CXA * math.atan(bxa))
+        dks[i] = k * math.sin(CXA * math.atan(bxa)) * CXA * BXA / (1 + bxa * bxa) / g_xa
+        dmax = mu * u.fz[i]
+        f0 = dmax * math.sin(CY * math.atan(ba))
+        df0 = dmax * CY * BY * math.cos(CY * math.atan(ba)) / (1 + ba * ba)
+        g_yk = math.cos(CYK * math.atan(bk))
+        dg_yk = -math.sin(CYK * math.atan(bk)) * CYK * BYK / (1 + bk * bk)
+        dqss[i] = g_yk * df0 + f0 * dg_yk * dks[i]  # d(G_yκ F_y0)/dα
+    return Slopes(dalpha, dks, dqss)
+
+
+def _omega_rows(u: Inputs, w: Wheels, s: Slopes) -> np.ndarray:
+    """∂ω_i/∂(v_x, v_y, γ) (4, 3) from (29)."""
+    d = u.delta * STEERED
+    cd, sd = np.cos(d), np.sin(d)
+    L = np.stack([cd, sd, -BYW * cd + LX * sd], axis=-1)
+    return (L * (1 + w.kappa[:, None]) + (w.vix * s.dk)[:, None] * s.dalpha) / R_W
+
+
 def jacobians(x: np.ndarray, u: Inputs, mu: float, T: float) -> tuple[np.ndarray, np.ndarray]:
-    """F = I + T ∂f/∂x and H = ∂h/∂x at one state, analytic, with κ̂'s dependence on α
-    through G_xα (28). E_y = 0, so dF_y0/dα = D C B cos(C atan(Bα)) / (1 + (Bα)²)."""
+    """F = I + T ∂f/∂x and H = ∂h/∂x at one state, analytic (`slopes`)."""
     vx, vy, r = x[:3]
     d = u.delta * STEERED
     cd, sd = np.cos(d), np.sin(d)
     w = wheels(x, u, mu)
+    s = slopes(x, u, mu, w)
     J = np.zeros((N_X, N_X))
     H = np.zeros((N_Y, N_X))
     J[0, 0] = H[0, 0] = -_resist_slope(vx) / M
@@ -290,29 +350,36 @@ def jacobians(x: np.ndarray, u: Inputs, mu: float, T: float) -> tuple[np.ndarray
     J[1, 3:] = H[1, 3:] = cd / M
     J[2, 3:] = (LX * cd + BYW * sd) / I_Z
     H[2, 2] = 1.0
-    vX, vY = vx - BYW * r, vy + LX * r
-    viy = -sd * vX + cd * vY
-    den = np.maximum(np.abs(w.vix), 0.5)
+    H[3:, :3] = _omega_rows(u, w, s)
     sgn = np.sign(w.vix)
     for i in range(4):
         L = np.array([cd[i], sd[i], -BYW[i] * cd[i] + LX[i] * sd[i]])
-        dviy = np.array([-sd[i], cd[i], sd[i] * BYW[i] + cd[i] * LX[i]])
-        dden = sgn[i] * L if abs(w.vix[i]) > 0.5 else np.zeros(3)
-        zz = viy[i] / den[i]
-        dalpha = -(dviy / den[i] - viy[i] / den[i] ** 2 * dden) / (1 + zz * zz)
-        a, k = float(w.alpha[i]), float(w.kappa[i])
-        ba, bxa, bk = BY * a, BXA * a, BYK * k
-        # κ̂ = F_x / (G_xα(α) k): dκ̂/dα = -κ̂ G_xα' / G_xα
-        g_xa = math.cos(CXA * math.atan(bxa))
-        dk = k * math.sin(CXA * math.atan(bxa)) * CXA * BXA / (1 + bxa * bxa) / g_xa
-        dmax = mu * u.fz[i]
-        f0 = dmax * math.sin(CY * math.atan(ba))
-        df0 = dmax * CY * BY * math.cos(CY * math.atan(ba)) / (1 + ba * ba)
-        g_yk = math.cos(CYK * math.atan(bk))
-        dg_yk = -math.sin(CYK * math.atan(bk)) * CYK * BYK / (1 + bk * bk)
-        dqs = g_yk * df0 + f0 * dg_yk * dk  # d(G_yκ F_y0)/dα
         q = w.fy_qs[i] - x[3 + i]
-        J[3 + i, :3] = (sgn[i] * L * q + abs(w.vix[i]) * dqs * dalpha) / SIGMA
+        J[3 + i, :3] = (sgn[i] * L * q + abs(w.vix[i]) * s.dqs[i] * s.dalpha[i]) / SIGMA
         J[3 + i, 3 + i] = -abs(w.vix[i]) / SIGMA
-        H[3 + i, :3] = (L * (1 + k) + w.vix[i] * dk * dalpha) / R_W
     return np.eye(N_X) + T * J, H
+
+
+def jacobians3(
+    x: np.ndarray, u: Inputs, mu: float, T: float
+) -> tuple[np.ndarray, np.ndarray, Wheels, Slopes]:
+    """The 3-state model's F (3×3) and H (7×3), the forces' slopes through α; the wheel
+    terms and slopes at x too (the filter's force outputs use them)."""
+    vx, vy, r = x[:3]
+    d = u.delta * STEERED
+    cd, sd = np.cos(d), np.sin(d)
+    w = wheels(x, u, mu)
+    s = slopes(x, u, mu, w)
+    dfy = s.dqs[:, None] * s.dalpha  # (4, 3)
+    arms = np.stack([-sd, cd, LX * cd + BYW * sd])  # ∂(ΣF_X, ΣF_Y, M_z)/∂F_iy
+    Jf = arms @ dfy
+    rs = _resist_slope(vx) / M
+    J = np.array([[-rs, r, vy], [-r, 0.0, -vx], [0.0, 0.0, 0.0]])
+    J += Jf / np.array([[M], [M], [I_Z]])
+    H = np.zeros((N_Y, 3))
+    H[0] = Jf[0] / M
+    H[0, 0] -= rs
+    H[1] = Jf[1] / M
+    H[2, 2] = 1.0
+    H[3:] = _omega_rows(u, w, s)
+    return np.eye(3) + T * J, H, w, s

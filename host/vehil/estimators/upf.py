@@ -9,6 +9,11 @@ and β. The first sample only corrects the prior.
 - EKF (note §8.1.5): analytic Jacobians (see `jacobians`), P = F P Fᵀ + Q, then the
   seven measurements as sequential scalar updates (R is diagonal, so this is the
   batch update; the board does the same and never inverts a 7×7).
+- EKF3 (the board's reduced EKF): x = [v_x, v_y, γ], the lateral forces not states
+  but the quasi-static G_yκ F_y0 at the estimate ((20) at steady state), so F is 3×3
+  and H 7×3. Its force outputs are the predicted state's, carried to the corrected
+  state to first order (as on the board, where a third tire evaluation would cost as
+  much as the rest of the update). p0_f and q_f are unused.
 - UKF: the non-augmented, additive-noise UKF with the paper's UT parameters (κ = 0,
   β = 2, α from `alpha`), sigma points from Cholesky, drawn again from the predicted
   (x, P) for the measurement. Means are taken as χ_0 + Σ W_j (χ_j - χ_0), which is
@@ -106,6 +111,21 @@ class _Filter(ABC):
     def update(self, u: ev.Inputs) -> None: ...
 
 
+def ekf_correct(
+    x: np.ndarray, P: np.ndarray, H: np.ndarray, e: np.ndarray, R: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Sequential scalar updates with the innovations e at the predicted x: the batch
+    update, R being diagonal."""
+    x_pred = x.copy()
+    for j in range(len(e)):
+        hj = H[j]
+        ph = P @ hj
+        k = ph / (hj @ ph + R[j])
+        x = x + k * (e[j] - hj @ (x - x_pred))
+        P = P - np.outer(k, ph)
+    return x, P
+
+
 class Ekf(_Filter):
     """step(12 sensors) -> [v_x, v_y, γ, F_1y..F_4y, β]."""
 
@@ -117,15 +137,35 @@ class Ekf(_Filter):
     def update(self, u: ev.Inputs) -> None:
         R = self.noise(u)
         _, H = ev.jacobians(self.x, u, self.mu, self.T)
-        x_pred = self.x.copy()
         e = u.y - ev.h(self.x, u, self.mu)
-        for j in range(ev.N_Y):  # sequential scalar updates: the batch update, R diagonal
-            hj = H[j]
-            ph = self.P @ hj
-            s = hj @ ph + R[j]
-            k = ph / s
-            self.x = self.x + k * (e[j] - hj @ (self.x - x_pred))
-            self.P = self.P - np.outer(k, ph)
+        self.x, self.P = ekf_correct(self.x, self.P, H, e, R)
+
+
+class Ekf3(_Filter):
+    """step(12 sensors) -> [v_x, v_y, γ, F_1y..F_4y, β], 3 states (see above)."""
+
+    def __init__(self, p: Mapping[str, float]):
+        super().__init__(p)
+        self.x, self.P = self.x[:3], self.P[:3, :3]
+        self.Q = self.Q[:3, :3]
+        self.fy = np.zeros(4)
+
+    def predict(self, u: ev.Inputs) -> None:
+        F, _, _, _ = ev.jacobians3(self.x, u, self.mu, self.T)
+        self.x = ev.step3(self.x, u, self.mu, self.T)
+        self.P = F @ self.P @ F.T + self.Q
+
+    def update(self, u: ev.Inputs) -> None:
+        R = self.noise(u)
+        _, H, w, s = ev.jacobians3(self.x, u, self.mu, self.T)
+        e = u.y - ev.h(self.x, u, self.mu, quasi_static=True)
+        x_pred = self.x
+        self.x, self.P = ekf_correct(self.x, self.P, H, e, R)
+        self.fy = w.fy_qs + s.dqs * (s.dalpha @ (self.x - x_pred))
+
+    def step(self, z: np.ndarray) -> np.ndarray:
+        out = super().step(z)
+        return np.r_[out[:3], self.fy, out[-1]]
 
 
 class Ukf(_Filter):
@@ -267,6 +307,21 @@ EKF = register(
         inputs=ev.INPUTS,
         outputs=ev.OUTPUTS,
         reference=Ekf,
+        params=ev.PARAMS,
+        modes=("F32",),
+        paper="001-upf-distributed-ev",
+        doc=DOC,
+    )
+)
+
+EKF3 = register(
+    EstimatorSpec(
+        name="ev_ekf3",
+        c_id=52,
+        title="EKF on the 3-state EV model, quasi-static lateral forces (seed 001, board)",
+        inputs=ev.INPUTS,
+        outputs=ev.OUTPUTS,
+        reference=Ekf3,
         params=ev.PARAMS,
         modes=("F32",),
         paper="001-upf-distributed-ev",
