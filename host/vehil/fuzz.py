@@ -58,7 +58,7 @@ def build() -> Path:
         cc,
         *flags,
         "-g",
-        "-DVEHIL_EV7",  # as the native build: every estimator
+        "-DVEHIL_EV_FILTERS",  # as the native build: every estimator
         "-fsanitize=fuzzer,address,undefined",
         "-fno-sanitize-recover=all",
         "-I",

@@ -33,12 +33,10 @@ static void predict(ev_ekf3_state_t *s)
 {
     const float *p = s->model.p;
     float F[9], tmp[9], rates[3];
-    ev_wheels_t w;
-    ev_slopes_t d;
-    ev_wheels(s->x, &s->u_prev, s->model.mu, &w);
-    ev_slopes(&s->u_prev, s->model.mu, &w, &d);
-    ev_jacobians3(&s->model, s->x, &s->u_prev, &w, &d, F, NULL);
-    ev_body_rates(s->x, w.fy_qs, &s->u_prev, rates);
+    /* No tire evaluation here: the forces at x_{k-1|k-1} are the last update's, carried
+     * there to first order, and their slopes are that update's (same u_{k-1}). */
+    ev_jacobians3(&s->model, s->x, &s->u_prev, NULL, &s->d, F, NULL);
+    ev_body_rates(s->x, s->fy, &s->u_prev, rates);
     for (uint8_t i = 0; i < 3u; i++) {
         s->x[i] += s->model.T * rates[i];
     }
@@ -52,12 +50,12 @@ static void predict(ev_ekf3_state_t *s)
 static void update(ev_ekf3_state_t *s, const ev_inputs_t *u)
 {
     float r[EV_NY], e[EV_NY], H[EV_NY * 3u], x_pred[3];
+    const ev_slopes_t *d = &s->d;
     ev_wheels_t w;
-    ev_slopes_t d;
     ev_wheels(s->x, u, s->model.mu, &w);
-    ev_slopes(u, s->model.mu, &w, &d);
+    ev_slopes(u, s->model.mu, &w, &s->d);
     ev_noise(&s->model, u, &w, r);
-    ev_jacobians3(&s->model, s->x, u, &w, &d, NULL, H);
+    ev_jacobians3(&s->model, s->x, u, &w, d, NULL, H);
     ev_h(s->x, w.fy_qs, u, &w, e);
     for (uint8_t j = 0; j < EV_NY; j++) {
         e[j] = u->y[j] - e[j];
@@ -69,9 +67,9 @@ static void update(ev_ekf3_state_t *s, const ev_inputs_t *u)
     for (uint8_t i = 0; i < 4u; i++) {
         float da = 0.0f;
         for (uint8_t j = 0; j < 3u; j++) {
-            da += d.dalpha[i][j] * (s->x[j] - x_pred[j]);
+            da += d->dalpha[i][j] * (s->x[j] - x_pred[j]);
         }
-        s->fy[i] = w.fy_qs[i] + d.dqs[i] * da;
+        s->fy[i] = w.fy_qs[i] + d->dqs[i] * da;
     }
 }
 

@@ -77,7 +77,7 @@ void ev_h(const float *x, const float *fy, const ev_inputs_t *u, const ev_wheels
  * either may be NULL. */
 void ev_jacobians(const ev_model_t *m, const float *x, const ev_inputs_t *u,
                   const ev_wheels_t *w, const ev_slopes_t *d, float *F, float *H);
-/* 3 states (lateral forces quasi-static): F (3×3) and H (7×3). */
+/* 3 states (lateral forces quasi-static): F (3×3) and H (7×3); w is only read for H. */
 void ev_jacobians3(const ev_model_t *m, const float *x, const ev_inputs_t *u,
                    const ev_wheels_t *w, const ev_slopes_t *d, float *F, float *H);
 /* diag R, fixed or by (66)-(69) with κ̂ at the estimate (w). */

@@ -228,10 +228,10 @@ def h(x: np.ndarray, u: Inputs, mu: float, quasi_static: bool = False) -> np.nda
     return np.concatenate([np.stack([fx / M, fy / M, x[..., 2]], axis=-1), om], axis=-1)
 
 
-def step3(x: np.ndarray, u: Inputs, mu: float, T: float) -> np.ndarray:
-    """The 3-state model [v_x, v_y, γ]: (26)'s first three rows, the lateral forces
-    quasi-static (G_yκ F_y0 at x: (20) at steady state)."""
-    fx, fy, mz = body_forces(x, u, wheels(x, u, mu).fy_qs)
+def step3(x: np.ndarray, u: Inputs, T: float, fy: np.ndarray) -> np.ndarray:
+    """The 3-state model [v_x, v_y, γ]: (26)'s first three rows with the given lateral
+    forces (the quasi-static G_yκ F_y0: (20) at steady state)."""
+    fx, fy, mz = body_forces(x, u, fy)
     vx, vy, r = x[..., 0], x[..., 1], x[..., 2]
     return x + T * np.stack([fx / M + r * vy, fy / M - r * vx, mz / I_Z], axis=-1)
 
@@ -361,25 +361,25 @@ def jacobians(x: np.ndarray, u: Inputs, mu: float, T: float) -> tuple[np.ndarray
 
 
 def jacobians3(
-    x: np.ndarray, u: Inputs, mu: float, T: float
-) -> tuple[np.ndarray, np.ndarray, Wheels, Slopes]:
-    """The 3-state model's F (3×3) and H (7×3), the forces' slopes through α; the wheel
-    terms and slopes at x too (the filter's force outputs use them)."""
+    x: np.ndarray, u: Inputs, T: float, s: Slopes, w: Wheels | None
+) -> tuple[np.ndarray, np.ndarray | None]:
+    """The 3-state model's F (3×3) and, given the wheel terms, H (7×3), the forces
+    entering through their slopes s."""
     vx, vy, r = x[:3]
     d = u.delta * STEERED
     cd, sd = np.cos(d), np.sin(d)
-    w = wheels(x, u, mu)
-    s = slopes(x, u, mu, w)
     dfy = s.dqs[:, None] * s.dalpha  # (4, 3)
     arms = np.stack([-sd, cd, LX * cd + BYW * sd])  # ∂(ΣF_X, ΣF_Y, M_z)/∂F_iy
     Jf = arms @ dfy
     rs = _resist_slope(vx) / M
     J = np.array([[-rs, r, vy], [-r, 0.0, -vx], [0.0, 0.0, 0.0]])
     J += Jf / np.array([[M], [M], [I_Z]])
+    if w is None:
+        return np.eye(3) + T * J, None
     H = np.zeros((N_Y, 3))
     H[0] = Jf[0] / M
     H[0, 0] -= rs
     H[1] = Jf[1] / M
     H[2, 2] = 1.0
     H[3:] = _omega_rows(u, w, s)
-    return np.eye(3) + T * J, H, w, s
+    return np.eye(3) + T * J, H

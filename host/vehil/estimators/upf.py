@@ -11,9 +11,10 @@ and β. The first sample only corrects the prior.
   batch update; the board does the same and never inverts a 7×7).
 - EKF3 (the board's reduced EKF): x = [v_x, v_y, γ], the lateral forces not states
   but the quasi-static G_yκ F_y0 at the estimate ((20) at steady state), so F is 3×3
-  and H 7×3. Its force outputs are the predicted state's, carried to the corrected
-  state to first order (as on the board, where a third tire evaluation would cost as
-  much as the rest of the update). p0_f and q_f are unused.
+  and H 7×3. One tire evaluation per step (they dominate the board's cycles), at the
+  predicted state: the forces there are carried to the corrected state to first order
+  (the force outputs), and the next prediction uses these forces and the same slopes
+  (u_{k-1} is the input of both). p0_f and q_f are unused.
 - UKF: the non-augmented, additive-noise UKF with the paper's UT parameters (κ = 0,
   β = 2, α from `alpha`), sigma points from Cholesky, drawn again from the predicted
   (x, P) for the measurement. Means are taken as χ_0 + Σ W_j (χ_j - χ_0), which is
@@ -149,19 +150,25 @@ class Ekf3(_Filter):
         self.x, self.P = self.x[:3], self.P[:3, :3]
         self.Q = self.Q[:3, :3]
         self.fy = np.zeros(4)
+        self.slopes: ev.Slopes | None = None
 
     def predict(self, u: ev.Inputs) -> None:
-        F, _, _, _ = ev.jacobians3(self.x, u, self.mu, self.T)
-        self.x = ev.step3(self.x, u, self.mu, self.T)
+        assert self.slopes is not None  # an update came first
+        F, _ = ev.jacobians3(self.x, u, self.T, self.slopes, None)
+        self.x = ev.step3(self.x, u, self.T, self.fy)
         self.P = F @ self.P @ F.T + self.Q
 
     def update(self, u: ev.Inputs) -> None:
         R = self.noise(u)
-        _, H, w, s = ev.jacobians3(self.x, u, self.mu, self.T)
+        w = ev.wheels(self.x, u, self.mu)
+        s = ev.slopes(self.x, u, self.mu, w)
+        _, H = ev.jacobians3(self.x, u, self.T, s, w)
+        assert H is not None
         e = u.y - ev.h(self.x, u, self.mu, quasi_static=True)
         x_pred = self.x
         self.x, self.P = ekf_correct(self.x, self.P, H, e, R)
         self.fy = w.fy_qs + s.dqs * (s.dalpha @ (self.x - x_pred))
+        self.slopes = s
 
     def step(self, z: np.ndarray) -> np.ndarray:
         out = super().step(z)
