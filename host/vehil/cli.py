@@ -435,7 +435,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     sub = parser.add_subparsers(dest="command", required=True)
 
     p = sub.add_parser("build", help="build the firmware, the simavr bridge and the native library")
-    p.add_argument("--only", action="append", choices=("firmware", "sim", "native"))
+    p.add_argument("--only", action="append", choices=("firmware", "firmware-ev", "sim", "native"))
     p.add_argument("--verbose", action="store_true")
     p.set_defaults(func=cmd_build)
 

@@ -58,6 +58,7 @@ def build() -> Path:
         cc,
         *flags,
         "-g",
+        "-DVEHIL_EV_FILTERS",  # as the native build: every estimator
         "-fsanitize=fuzzer,address,undefined",
         "-fno-sanitize-recover=all",
         "-I",

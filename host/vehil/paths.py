@@ -8,6 +8,8 @@ BUILD_DIR = PROJECT_ROOT / "build"
 NATIVE_LIB = BUILD_DIR / "native" / "libvehil.so"
 SIMAVR_BRIDGE = PROJECT_ROOT / "sim" / "build" / "vehil-simavr"
 FIRMWARE_ELF = PROJECT_ROOT / ".pio" / "build" / "offline" / "firmware.elf"
+# The same plus seed 001's filters (env offline-ev): simavr only, see platformio.ini.
+FIRMWARE_EV_ELF = PROJECT_ROOT / ".pio" / "build" / "offline-ev" / "firmware.elf"
 # The Mega 2560's stk500v2 bootloader, from Debian's arduino-core-avr.
 MEGA_BOOTLOADER_HEX = Path(
     "/usr/share/arduino/hardware/arduino/avr/bootloaders/stk500v2/stk500boot_v2_mega2560.hex"

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from vehil.boards import open_board
-from vehil.estimators import acc_kf, eso, kfui, stlqf
+from vehil.estimators import acc_kf, eso, kfui, stlqf, upf
 
 
 @pytest.mark.parametrize(
@@ -15,6 +15,8 @@ from vehil.estimators import acc_kf, eso, kfui, stlqf
         (kfui.SPEC, [0.3, -2.0], [float("nan"), 0.0]),
         (stlqf.STLQF, [20.0, 0.5, 2000.0], [20.0, float("nan"), 2000.0]),
         (stlqf.RLS, [20.0, 0.5, 2000.0], [20.0, float("nan"), 2000.0]),
+        (upf.EKF, [0.0, 0.0, 0.0, *[74.0] * 4, 0.0, *[20.0] * 4], [float("nan"), *[0.0] * 11]),
+        (upf.UKF, [0.0, 0.0, 0.0, *[74.0] * 4, 0.0, *[20.0] * 4], [*[0.0] * 11, float("nan")]),
     ],
     ids=lambda x: getattr(x, "name", ""),
 )

@@ -1,10 +1,19 @@
 /* The estimators built into this image. Adding one: include its header, add
- * its state to the union and its descriptor to the table. */
+ * its state to the union and its descriptor to the table.
+ * VEHIL_EV_FILTERS adds seed 001's EKF, UKF and reduced EKF: the native build and the
+ * AVR env `offline-ev` have them; the default AVR image leaves them out, as none keeps
+ * a 10 ms step and they push its initialised data past 64 KB of flash, where QEMU 7.2
+ * cannot read it (README, "What runs on the board"). */
 #include <stddef.h>
 
 #include "estimators/acc_kf.h"
 #include "estimators/eso.h"
 #include "estimators/estimator.h"
+#ifdef VEHIL_EV_FILTERS
+#include "estimators/ev_ekf.h"
+#include "estimators/ev_ekf3.h"
+#include "estimators/ev_ukf.h"
+#endif
 #include "estimators/kfui.h"
 #include "estimators/manf.h"
 #include "estimators/passthrough.h"
@@ -21,6 +30,11 @@ static union {
     kfui_state_t kfui;
     stlqf_state_t stlqf;
     rls_state_t rls;
+#ifdef VEHIL_EV_FILTERS
+    ev_ekf_state_t ev_ekf;
+    ev_ukf_state_t ev_ukf;
+    ev_ekf3_state_t ev_ekf3;
+#endif
 } state;
 
 static const estimator_t *const registry[] = {
@@ -32,6 +46,11 @@ static const estimator_t *const registry[] = {
     &kfui_estimator,
     &stlqf_estimator,
     &rls_estimator,
+#ifdef VEHIL_EV_FILTERS
+    &ev_ekf_estimator,
+    &ev_ukf_estimator,
+    &ev_ekf3_estimator,
+#endif
 };
 
 uint8_t estimator_count(void) { return (uint8_t)(sizeof registry / sizeof registry[0]); }

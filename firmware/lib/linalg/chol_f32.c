@@ -27,6 +27,17 @@ static uint8_t factor(const float *a, uint8_t n, float *l, float *inv)
     return 1;
 }
 
+uint8_t chol_factor_f32(const float *a, uint8_t n, float *l)
+{
+    float inv[CHOL_F32_MAX_N];
+    for (uint8_t i = 0; i < n; i++) {
+        for (uint8_t j = (uint8_t)(i + 1u); j < n; j++) {
+            l[i * n + j] = 0.0f;
+        }
+    }
+    return factor(a, n, l, inv);
+}
+
 uint8_t chol_solve_f32(float *a, float *b, uint8_t n, float *cond)
 {
     float inv[CHOL_F32_MAX_N];

@@ -5,7 +5,11 @@
 
 #include <stdint.h>
 
-#define CHOL_F32_MAX_N 6u
+#define CHOL_F32_MAX_N 7u
+
+/* L (lower, zero above the diagonal) with L Lᵀ = a into l; returns 0 if a pivot is not
+ * positive. l must not alias a. */
+uint8_t chol_factor_f32(const float *a, uint8_t n, float *l);
 
 /* a (n×n, SPD) -> a⁻¹ in place; returns 0 if a pivot is not positive (a is then garbage). */
 uint8_t chol_inv_f32(float *a, uint8_t n);

@@ -13,11 +13,12 @@ from vehil.boards.base import Board
 from vehil.boards.native import NativeBoard
 from vehil.boards.qemu import QemuBoard
 from vehil.boards.serialport import SerialBoard
-from vehil.boards.simavr import SimavrBoard, SimavrBootloaderBoard
+from vehil.boards.simavr import SimavrBoard, SimavrBootloaderBoard, SimavrEvBoard
 
 VIRTUAL_BOARDS: dict[str, type[Board]] = {
     "simavr": SimavrBoard,
     "simavr-bootloader": SimavrBootloaderBoard,
+    "simavr-ev": SimavrEvBoard,
     "qemu": QemuBoard,
     "native": NativeBoard,
 }

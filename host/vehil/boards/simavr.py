@@ -10,7 +10,13 @@ from vehil.boards.base import Board
 from vehil.boards.process import BoardProcess
 from vehil.errors import BoardTimeout, BuildMissing
 from vehil.link import Link
-from vehil.paths import FIRMWARE_ELF, MEGA_BOOTLOADER_HEX, SIMAVR_BRIDGE, SIMAVR_FLASH_IMAGE
+from vehil.paths import (
+    FIRMWARE_ELF,
+    FIRMWARE_EV_ELF,
+    MEGA_BOOTLOADER_HEX,
+    SIMAVR_BRIDGE,
+    SIMAVR_FLASH_IMAGE,
+)
 
 _READY_PREFIX = "vehil-simavr: listening url="
 
@@ -61,6 +67,16 @@ class SimavrBoard(Board):
         if self.process is not None:
             self.process.stop()
             self.process = None
+
+
+class SimavrEvBoard(SimavrBoard):
+    """simavr running the image with seed 001's filters (env offline-ev), which the
+    default image leaves out: too slow for a 10 ms step and over 64 KB of flash."""
+
+    name = "simavr-ev"
+
+    def __init__(self, *, elf: Path = FIRMWARE_EV_ELF, **options: object):
+        super().__init__(elf=elf, **options)  # type: ignore[arg-type]
 
 
 class SimavrBootloaderBoard(SimavrBoard):

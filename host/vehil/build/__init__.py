@@ -11,7 +11,7 @@ from vehil.build.platformio import build_firmware
 from vehil.errors import BuildError
 from vehil.paths import PROJECT_ROOT, SIMAVR_BRIDGE
 
-PARTS = ("firmware", "sim", "native")
+PARTS = ("firmware", "firmware-ev", "sim", "native")
 
 
 def build_simavr_bridge(*, verbose: bool = False) -> Path:
@@ -27,6 +27,7 @@ def build(parts: Sequence[str] = PARTS, *, verbose: bool = False) -> dict[str, P
     """Builds the named parts (incrementally); returns where each product is."""
     steps = {
         "firmware": lambda: build_firmware(verbose=verbose),
+        "firmware-ev": lambda: build_firmware("offline-ev", verbose=verbose),
         "sim": lambda: build_simavr_bridge(verbose=verbose),
         "native": lambda: build_native(verbose=verbose),
     }

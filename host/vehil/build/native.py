@@ -37,6 +37,7 @@ def build_native(*, verbose: bool = False) -> Path:
         os.environ.get("CC", "cc"),
         *c_flags(),
         *defines,
+        "-DVEHIL_EV_FILTERS",  # every estimator, those left out of the AVR image too
         "-fPIC",
         "-shared",
         "-I",

@@ -63,6 +63,29 @@ def _environment(core_dir: Path) -> dict[str, str]:
     return env
 
 
+_SECTION = re.compile(r"^\s*\d+\s+(\S+)\s+([0-9a-f]+)\s+[0-9a-f]+\s+([0-9a-f]+)\s")
+
+
+def check_data_in_low_flash(elf: Path) -> None:
+    """The initialised RAM data must load from below 64 KB of flash: avr-libc's start-up
+    copies it with ELPM, and QEMU 7.2 (Debian 12) ignores RAMPZ in ELPM (fixed in 8.0 by
+    "target/avr: fix long address calculation"), so above 64 KB it reads the wrong bytes
+    and every initialised variable starts wrong on the qemu board."""
+    out = subprocess.run(["avr-objdump", "-h", str(elf)], capture_output=True, text=True)
+    for line in out.stdout.splitlines():
+        m = _SECTION.match(line)
+        if m and m.group(1) == ".data":
+            end = int(m.group(3), 16) + int(m.group(2), 16)
+            if end > 0x10000:
+                raise BuildError(
+                    f"{elf}: .data loads from flash up to 0x{end:x}, past 64 KB, where QEMU "
+                    "7.2's ELPM cannot read it (it ignores RAMPZ): keep the default image "
+                    "under 64 KB (README, \"What runs on the board\")"
+                )
+            return
+    raise BuildError(f"{elf}: no .data in `avr-objdump -h` output:\n{out.stdout}{out.stderr}")
+
+
 _SIZE_LINE = re.compile(r"^(RAM|Flash):\s+\[.*\]\s+(.*)$")
 
 
@@ -83,4 +106,6 @@ def build_firmware(env: str = "offline", *, verbose: bool = False) -> Path:
         m = _SIZE_LINE.match(line.strip())
         if m and not verbose:
             print(f"firmware {m.group(1)}: {m.group(2)}")
+    if env == "offline":  # the image the qemu board runs
+        check_data_in_low_flash(firmware_elf(env))
     return firmware_elf(env)

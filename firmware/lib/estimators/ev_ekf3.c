@@ -1,0 +1,106 @@
+#include "estimators/ev_ekf3.h"
+
+#include <string.h>
+
+#include "linalg/mat_f32.h"
+
+static void ev_ekf3_reset(void *state)
+{
+    ev_ekf3_state_t *s = state;
+    float x[EV_NX], P[EV_NX * EV_NX];
+    ev_model_reset(&s->model);
+    ev_prior(&s->model, x, P);
+    memcpy(s->x, x, sizeof s->x);
+    for (uint8_t i = 0; i < 3u; i++) {
+        memcpy(s->P + 3u * i, P + EV_NX * i, 3u * sizeof(float));
+    }
+    memset(s->fy, 0, sizeof s->fy);
+    s->started = 0;
+}
+
+static uint8_t ev_ekf3_configure(void *state, uint8_t mode, const uint8_t *params)
+{
+    ev_ekf3_state_t *s = state;
+    uint8_t bad = ev_model_configure(&s->model, mode, params, NULL, 0);
+    if (bad != 0u) {
+        return bad;
+    }
+    ev_ekf3_reset(s);
+    return 0;
+}
+
+static void predict(ev_ekf3_state_t *s)
+{
+    const float *p = s->model.p;
+    float F[9], tmp[9], rates[3];
+    /* No tire evaluation here: the forces at x_{k-1|k-1} are the last update's, carried
+     * there to first order, and their slopes are that update's (same u_{k-1}). */
+    ev_jacobians3(&s->model, s->x, &s->u_prev, NULL, &s->d, F, NULL);
+    ev_body_rates(s->x, s->fy, &s->u_prev, rates);
+    for (uint8_t i = 0; i < 3u; i++) {
+        s->x[i] += s->model.T * rates[i];
+    }
+    mat_mul_f32(F, s->P, 3, 3, 3, tmp);
+    mat_mul_bt_f32(tmp, F, 3, 3, 3, s->P);
+    s->P[0] += p[EV_P_QV];
+    s->P[4] += p[EV_P_QVY];
+    s->P[8] += p[EV_P_QR];
+}
+
+static void update(ev_ekf3_state_t *s, const ev_inputs_t *u)
+{
+    float r[EV_NY], e[EV_NY], H[EV_NY * 3u], x_pred[3];
+    const ev_slopes_t *d = &s->d;
+    ev_wheels_t w;
+    ev_wheels(s->x, u, s->model.mu, &w);
+    ev_slopes(u, s->model.mu, &w, &s->d);
+    ev_noise(&s->model, u, &w, r);
+    ev_jacobians3(&s->model, s->x, u, &w, d, NULL, H);
+    ev_h(s->x, w.fy_qs, u, &w, e);
+    for (uint8_t j = 0; j < EV_NY; j++) {
+        e[j] = u->y[j] - e[j];
+    }
+    memcpy(x_pred, s->x, sizeof x_pred);
+    ev_ekf_correct(s->x, s->P, 3, H, e, r);
+    /* the forces at the corrected state, to first order: a third tire evaluation would
+     * cost as much as the rest of the update */
+    for (uint8_t i = 0; i < 4u; i++) {
+        float da = 0.0f;
+        for (uint8_t j = 0; j < 3u; j++) {
+            da += d->dalpha[i][j] * (s->x[j] - x_pred[j]);
+        }
+        s->fy[i] = w.fy_qs[i] + d->dqs[i] * da;
+    }
+}
+
+static uint8_t ev_ekf3_step(void *state, const uint8_t *in, uint8_t in_len, uint8_t *out,
+                            uint8_t *out_len)
+{
+    (void)in_len;
+    ev_ekf3_state_t *s = state;
+    ev_inputs_t u;
+    *out_len = 4u * EV_N_OUTPUTS;
+    uint8_t status = ev_model_inputs(&s->model, in, &u);
+    if (status == 0u) {
+        if (s->started) {
+            predict(s);
+        }
+        update(s, &u);
+        ev_symmetrize(s->P, 3);
+        s->u_prev = u;
+        s->started = 1;
+    }
+    return (uint8_t)(status | ev_outputs(s->x, s->fy, out));
+}
+
+const estimator_t ev_ekf3_estimator = {
+    .id = EV_EKF3_ID,
+    .name = "ev_ekf3",
+    .modes = 1u << MODE_F32,
+    .n_inputs = EV_N_INPUTS,
+    .n_outputs = EV_N_OUTPUTS,
+    .n_params = EV_N_PARAMS,
+    .configure = ev_ekf3_configure,
+    .reset = ev_ekf3_reset,
+    .step = ev_ekf3_step,
+};

@@ -1,0 +1,30 @@
+/* The board's reduced EKF for seed 001 (the 7-state EKF and UKF do not keep a 10 ms step
+ * on the ATmega2560): x = [v_x, v_y, γ], the lateral forces not states but the
+ * quasi-static combined-slip ones of ev_model at the estimate (no relaxation, eq. 20
+ * at steady state). One tire evaluation per step, at the predicted state: the next
+ * prediction reuses its slopes and its forces carried to the corrected state to first
+ * order (the forces out too). Same inputs, outputs and parameters as ev_ekf (p0_f and q_f unused:
+ * no force states). Host: estimators/upf.py (Ekf3). */
+#ifndef VEHIL_ESTIMATORS_EV_EKF3_H
+#define VEHIL_ESTIMATORS_EV_EKF3_H
+
+#include <stdint.h>
+
+#include "estimators/estimator.h"
+#include "estimators/ev_model.h"
+
+#define EV_EKF3_ID 52u
+
+typedef struct {
+    ev_model_t model;
+    ev_inputs_t u_prev;
+    float x[3];
+    float P[9];
+    float fy[4];    /* the lateral forces at x */
+    ev_slopes_t d;  /* the slopes at the last update's predicted state */
+    uint8_t started;
+} ev_ekf3_state_t;
+
+extern const estimator_t ev_ekf3_estimator;
+
+#endif

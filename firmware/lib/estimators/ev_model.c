@@ -1,0 +1,426 @@
+#include "estimators/ev_model.h"
+
+#include <math.h>
+#include <string.h>
+
+#include "proto/messages.h"
+#include "proto/wire.h"
+
+/* Note §5.2's vehicle, as in _ev4wd_model.py. */
+#define M_VEH 1400.0f
+#define I_Z 1900.0f
+#define L_F 1.10f
+#define L_R 1.45f
+#define TRACK 1.50f
+#define H_CG 0.50f
+#define R_W 0.30f
+#define I_W 1.2f
+#define DRAG (0.5f * 1.206f * 0.30f * 2.2f)
+#define ROLL (M_VEH * 9.81f * 0.015f)
+#define WB (L_F + L_R)
+#define BX 10.0f
+#define CX 1.9f
+#define BY 10.0f
+#define CY 1.3f
+#define BXA 10.0f
+#define BYK 10.0f
+/* C_xα = C_yκ = 1 (host CXA, CYK), so cos(C atan z) = 1/√(1+z²) and sin(C atan z) =
+ * z/√(1+z²): a square root instead of an atan and a cos, on a core without an FPU. */
+#define SIGMA (60000.0f / 150000.0f)
+#define TAU_WDOT 0.02f
+
+static const float lx[4] = {L_F, L_F, -L_R, -L_R};
+static const float byw[4] = {0.5f * TRACK, -0.5f * TRACK, 0.5f * TRACK, -0.5f * TRACK};
+
+static const param_range_t ranges[EV_N_PARAMS] = {
+    {1e-3f, 0.05f, 16},  {0.05f, 1.2f, 16},  {0.5f, 60.0f, 16},   {1e-6f, 100.0f, 16},
+    {1e-8f, 10.0f, 16},  {1.0f, 1e8f, 16},   {1e-10f, 1.0f, 16},  {1e-10f, 1.0f, 16},
+    {1e-12f, 1.0f, 16},  {1e-3f, 1e7f, 16},  {1e-8f, 100.0f, 16}, {1e-8f, 100.0f, 16},
+    {1e-10f, 1.0f, 16},  {1e-8f, 100.0f, 16}, {0.0f, 1.0f, 16},   {0.0f, 1e3f, 16},
+    {0.0f, 1e3f, 16},    {0.0f, 1.0f, 16},   {0.0f, 1e3f, 16},    {0.0f, 1e3f, 16},
+    {0.0f, 1e3f, 16},    {0.0f, 1e4f, 16},   {0.0f, 1e3f, 16},    {0.0f, 1e4f, 16},
+    {0.0f, 1e4f, 16},    {0.0f, 1e3f, 16},   {0.0f, 1e3f, 16},    {0.0f, 1e2f, 16},
+    {0.0f, 1e2f, 16},    {1.0f, 1e6f, 16},
+};
+
+uint8_t ev_model_configure(ev_model_t *m, uint8_t mode, const uint8_t *params,
+                           const param_range_t *own, uint8_t n_own)
+{
+    uint8_t bad = params_check(params, mode, ranges, EV_N_PARAMS);
+    if (bad != 0u) {
+        return bad;
+    }
+    bad = params_check(params + 4u * EV_N_PARAMS, mode, own, n_own);
+    if (bad != 0u) {
+        return (uint8_t)(bad + EV_N_PARAMS);
+    }
+    for (uint8_t i = 0; i < EV_N_PARAMS; i++) {
+        m->p[i] = get_f32(params + 4u * i);
+    }
+    m->T = m->p[EV_P_T];
+    m->mu = m->p[EV_P_MU];
+    m->lp = m->T / (TAU_WDOT + m->T);
+    m->adaptive = m->p[EV_P_ADAPTIVE] >= 0.5f;
+    ev_model_reset(m);
+    return 0;
+}
+
+void ev_model_reset(ev_model_t *m)
+{
+    memset(m->w_dot, 0, sizeof m->w_dot);
+    m->have_w = 0;
+}
+
+uint8_t ev_model_inputs(ev_model_t *m, const uint8_t *in, ev_inputs_t *u)
+{
+    float z[EV_N_INPUTS];
+    for (uint8_t i = 0; i < EV_N_INPUTS; i++) {
+        z[i] = get_f32(in + 4u * i);
+        if (!isfinite(z[i])) {
+            return STATUS_NOT_FINITE;
+        }
+    }
+    const float *w = z + 3, *tq = z + 8;
+    float ax = z[0], ay = z[1];
+    for (uint8_t i = 0; i < 4u; i++) {
+        if (m->have_w) {
+            m->w_dot[i] += m->lp * ((w[i] - m->w_prev[i]) / m->T - m->w_dot[i]);
+        }
+        m->w_prev[i] = w[i];
+        u->fx[i] = (tq[i] - I_W * m->w_dot[i]) / R_W;
+    }
+    m->have_w = 1;
+    /* Static loads and quasi-static transfer (note §5.2). */
+    float front = M_VEH * 9.81f * L_R / (2.0f * WB) - M_VEH * ax * H_CG / (2.0f * WB);
+    float rear = M_VEH * 9.81f * L_F / (2.0f * WB) + M_VEH * ax * H_CG / (2.0f * WB);
+    float lat_f = M_VEH * ay * H_CG * L_R / (TRACK * WB);
+    float lat_r = M_VEH * ay * H_CG * L_F / (TRACK * WB);
+    const float fz[4] = {front - lat_f, front + lat_f, rear - lat_r, rear + lat_r};
+    for (uint8_t i = 0; i < 4u; i++) {
+        u->fz[i] = fz[i] > 0.0f ? fz[i] : 0.0f;
+    }
+    u->delta = z[7];
+    u->cd = cosf(z[7]);
+    u->sd = sinf(z[7]);
+    memcpy(u->y, z, 3u * sizeof(float));
+    memcpy(u->y + 3, w, 4u * sizeof(float));
+    return 0;
+}
+
+static float cd_of(const ev_inputs_t *u, uint8_t i) { return i < 2u ? u->cd : 1.0f; }
+static float sd_of(const ev_inputs_t *u, uint8_t i) { return i < 2u ? u->sd : 0.0f; }
+static float fmaxf_(float a, float b) { return a > b ? a : b; }
+
+void ev_wheels(const float *x, const ev_inputs_t *u, float mu, ev_wheels_t *w)
+{
+    for (uint8_t i = 0; i < 4u; i++) {
+        float cd = cd_of(u, i), sd = sd_of(u, i);
+        float vX = x[0] - byw[i] * x[2], vY = x[1] + lx[i] * x[2];
+        float vix = cd * vX + sd * vY, viy = -sd * vX + cd * vY;
+        float alpha = -atanf(viy / fmaxf_(fabsf(vix), 0.5f));
+        float dmax = mu * u->fz[i], bxa = BXA * alpha;
+        /* (27)-(28): κ̂ = F_x / (G_xα B_x C_x D_x), G_xα = 1/√(1+(B_xα α)²) */
+        float kappa = u->fx[i] * sqrtf(1.0f + bxa * bxa) / (BX * CX * fmaxf_(dmax, 1.0f));
+        float ba = BY * alpha, ty = CY * atanf(ba), bk = BYK * kappa;
+        /* (15), (17), (19) with E_y = 0 and S_H = 0 */
+        w->fy_qs[i] = dmax * sinf(ty) / sqrtf(1.0f + bk * bk);
+        w->vix[i] = vix;
+        w->viy[i] = viy;
+        w->alpha[i] = alpha;
+        w->kappa[i] = kappa;
+        w->ba[i] = ba;
+        w->ty[i] = ty;
+    }
+}
+
+void ev_slopes(const ev_inputs_t *u, float mu, const ev_wheels_t *w, ev_slopes_t *d)
+{
+    for (uint8_t i = 0; i < 4u; i++) {
+        float cd = cd_of(u, i), sd = sd_of(u, i);
+        const float L[3] = {cd, sd, -byw[i] * cd + lx[i] * sd};
+        const float dviy[3] = {-sd, cd, sd * byw[i] + cd * lx[i]};
+        /* α = -atan(v_iy / max(|v_ix|, 0.5)) */
+        float vix = w->vix[i], viy = w->viy[i], avix = fabsf(vix);
+        float sgn = vix > 0.0f ? 1.0f : (vix < 0.0f ? -1.0f : 0.0f);
+        float den = fmaxf_(avix, 0.5f), zz = viy / den;
+        float g = 1.0f / (den * (1.0f + zz * zz));
+        for (uint8_t j = 0; j < 3u; j++) {
+            float dden = avix > 0.5f ? sgn * L[j] : 0.0f;
+            d->dalpha[i][j] = -(dviy[j] - zz * dden) * g;
+        }
+        /* κ̂ = F_x / (G_xα(α) k): dκ̂/dα = -κ̂ G_xα' / G_xα = κ̂ B_xα² α / (1 + (B_xα α)²) */
+        float k = w->kappa[i], bxa = BXA * w->alpha[i], ba = w->ba[i], bk = BYK * k;
+        float dk = k * BXA * bxa / (1.0f + bxa * bxa);
+        float dmax = mu * u->fz[i];
+        float f0 = dmax * sinf(w->ty[i]);
+        float df0 = dmax * CY * BY * cosf(w->ty[i]) / (1.0f + ba * ba);
+        float inv = 1.0f / (1.0f + bk * bk), g_yk = sqrtf(inv); /* G_yκ = 1/√(1+(B_yκ κ̂)²) */
+        float dg_yk = -bk * g_yk * BYK * inv;
+        d->dk[i] = dk;
+        d->dqs[i] = g_yk * df0 + f0 * dg_yk * dk; /* d(G_yκ F_y0)/dα */
+    }
+}
+
+/* (ΣF_X - resistances) / m, ΣF_Y / m, M_z / I_z (eqs. 1-4, 3) */
+static void accels(const float *x, const float *fy, const ev_inputs_t *u, float *acc)
+{
+    float sx = 0.0f, sy = 0.0f, mz = 0.0f;
+    for (uint8_t i = 0; i < 4u; i++) {
+        float cd = cd_of(u, i), sd = sd_of(u, i);
+        float fX = cd * u->fx[i] - sd * fy[i], fY = sd * u->fx[i] + cd * fy[i];
+        sx += fX;
+        sy += fY;
+        mz += lx[i] * fY - byw[i] * fX;
+    }
+    float vx = x[0];
+    acc[0] = (sx - (DRAG * vx * fabsf(vx) + ROLL * tanhf(vx / 0.5f))) / M_VEH;
+    acc[1] = sy / M_VEH;
+    acc[2] = mz / I_Z;
+}
+
+void ev_body_rates(const float *x, const float *fy, const ev_inputs_t *u, float *rates)
+{
+    accels(x, fy, u, rates);
+    rates[0] += x[2] * x[1];
+    rates[1] -= x[2] * x[0];
+}
+
+void ev_step(const ev_model_t *m, float *x, const ev_inputs_t *u, const ev_wheels_t *w)
+{
+    float d[3];
+    ev_body_rates(x, x + 3, u, d);
+    for (uint8_t i = 0; i < 4u; i++) { /* (20) */
+        x[3u + i] += m->T * fabsf(w->vix[i]) / SIGMA * (w->fy_qs[i] - x[3u + i]);
+    }
+    for (uint8_t i = 0; i < 3u; i++) {
+        x[i] += m->T * d[i];
+    }
+}
+
+void ev_h(const float *x, const float *fy, const ev_inputs_t *u, const ev_wheels_t *w, float *y)
+{
+    float acc[3];
+    accels(x, fy, u, acc);
+    y[0] = acc[0];
+    y[1] = acc[1];
+    y[2] = x[2];
+    for (uint8_t i = 0; i < 4u; i++) { /* (29) */
+        y[3u + i] = w->vix[i] * (1.0f + w->kappa[i]) / R_W;
+    }
+}
+
+static float resist_slope(float vx)
+{
+    float t = tanhf(vx / 0.5f);
+    return 2.0f * DRAG * fabsf(vx) + ROLL * (1.0f - t * t) / 0.5f;
+}
+
+/* Row i of ∂ω/∂(v_x, v_y, γ) (29) into h (stride 1). */
+static void omega_row(const ev_inputs_t *u, const ev_wheels_t *w, const ev_slopes_t *d,
+                      uint8_t i, float *h)
+{
+    float cd = cd_of(u, i), sd = sd_of(u, i);
+    const float L[3] = {cd, sd, -byw[i] * cd + lx[i] * sd};
+    for (uint8_t j = 0; j < 3u; j++) {
+        h[j] = (L[j] * (1.0f + w->kappa[i]) + w->vix[i] * d->dk[i] * d->dalpha[i][j]) / R_W;
+    }
+}
+
+void ev_jacobians(const ev_model_t *m, const float *x, const ev_inputs_t *u,
+                  const ev_wheels_t *w, const ev_slopes_t *d, float *F, float *H)
+{
+    float rs = resist_slope(x[0]) / M_VEH;
+    if (H != NULL) {
+        memset(H, 0, EV_NY * EV_NX * sizeof(float));
+        H[0] = -rs;
+        H[2 * EV_NX + 2] = 1.0f;
+    }
+    if (F != NULL) {
+        memset(F, 0, EV_NX * EV_NX * sizeof(float));
+        F[0] = -rs;
+        F[1] = x[2];
+        F[2] = x[1];
+        F[EV_NX + 0] = -x[2];
+        F[EV_NX + 2] = -x[0];
+    }
+    for (uint8_t i = 0; i < 4u; i++) {
+        float cd = cd_of(u, i), sd = sd_of(u, i);
+        uint8_t c = (uint8_t)(3u + i);
+        if (H != NULL) {
+            H[c] = -sd / M_VEH;
+            H[EV_NX + c] = cd / M_VEH;
+            float row[3];
+            omega_row(u, w, d, i, row);
+            memcpy(H + c * EV_NX, row, sizeof row);
+        }
+        if (F == NULL) {
+            continue;
+        }
+        F[c] = -sd / M_VEH;
+        F[EV_NX + c] = cd / M_VEH;
+        F[2 * EV_NX + c] = (lx[i] * cd + byw[i] * sd) / I_Z;
+        /* Row of F̃_iy: ∂/∂V of |v_ix|/σ (G_yκ(κ̂) F_y0(α) - F̃). */
+        const float L[3] = {cd, sd, -byw[i] * cd + lx[i] * sd};
+        float vix = w->vix[i], avix = fabsf(vix);
+        float sgn = vix > 0.0f ? 1.0f : (vix < 0.0f ? -1.0f : 0.0f);
+        float q = w->fy_qs[i] - x[c];
+        for (uint8_t j = 0; j < 3u; j++) {
+            F[c * EV_NX + j] = (sgn * L[j] * q + avix * d->dqs[i] * d->dalpha[i][j]) / SIGMA;
+        }
+        F[c * EV_NX + c] = -avix / SIGMA;
+    }
+    if (F != NULL) { /* I + T J */
+        for (uint8_t k = 0; k < EV_NX * EV_NX; k++) {
+            F[k] *= m->T;
+        }
+        for (uint8_t k = 0; k < EV_NX; k++) {
+            F[k * EV_NX + k] += 1.0f;
+        }
+    }
+}
+
+void ev_jacobians3(const ev_model_t *m, const float *x, const ev_inputs_t *u,
+                   const ev_wheels_t *w, const ev_slopes_t *d, float *F, float *H)
+{
+    /* ∂(ΣF_X, ΣF_Y, M_z)/∂V through the quasi-static forces' dF_y/dα ∂α/∂V */
+    float J[3][3] = {{0.0f}};
+    for (uint8_t i = 0; i < 4u; i++) {
+        float cd = cd_of(u, i), sd = sd_of(u, i);
+        const float arm[3] = {-sd, cd, lx[i] * cd + byw[i] * sd};
+        for (uint8_t j = 0; j < 3u; j++) {
+            float dfy = d->dqs[i] * d->dalpha[i][j];
+            for (uint8_t r = 0; r < 3u; r++) {
+                J[r][j] += arm[r] * dfy;
+            }
+        }
+        if (H != NULL) {
+            omega_row(u, w, d, i, H + (3u + i) * 3u);
+        }
+    }
+    float rs = resist_slope(x[0]) / M_VEH;
+    if (H != NULL) {
+        for (uint8_t j = 0; j < 3u; j++) {
+            H[j] = J[0][j] / M_VEH;
+            H[3u + j] = J[1][j] / M_VEH;
+            H[6u + j] = j == 2u ? 1.0f : 0.0f;
+        }
+        H[0] -= rs;
+    }
+    if (F != NULL) {
+        const float coupling[3][3] = {{-rs, x[2], x[1]}, {-x[2], 0.0f, -x[0]}, {0.0f}};
+        for (uint8_t r = 0; r < 3u; r++) {
+            float div = r == 2u ? I_Z : M_VEH;
+            for (uint8_t j = 0; j < 3u; j++) {
+                F[r * 3u + j] = (r == j ? 1.0f : 0.0f) + m->T * (J[r][j] / div + coupling[r][j]);
+            }
+        }
+    }
+}
+
+static float clip(float r, float fixed, float c)
+{
+    float lo = fixed / c, hi = fixed * c;
+    return r < lo ? lo : (r > hi ? hi : r);
+}
+
+void ev_noise(const ev_model_t *m, const ev_inputs_t *u, const ev_wheels_t *w, float *r)
+{
+    const float *p = m->p;
+    r[0] = p[EV_P_RAX];
+    r[1] = p[EV_P_RAY];
+    r[2] = p[EV_P_RGZ];
+    for (uint8_t i = 3; i < EV_NY; i++) {
+        r[i] = p[EV_P_RW];
+    }
+    if (!m->adaptive) {
+        return;
+    }
+    float ax = fabsf(u->y[0]), ay = fabsf(u->y[1]), gz = fabsf(u->y[2]), dl = fabsf(u->delta);
+    float sfx = 0.0f, sk = 0.0f;
+    for (uint8_t i = 0; i < 4u; i++) {
+        sfx += fabsf(u->fx[i]);
+        sk += fabsf(w->kappa[i]);
+    }
+    float c = p[EV_P_RCLIP];
+    /* (66)-(69), c_j as fractions of the fixed r */
+    float r_ax = p[EV_P_CAX] * r[0] / 3.0f *
+                 (expf(-p[EV_P_DAX1] * ax) + expf(-p[EV_P_DAX2] * sfx) + expf(-p[EV_P_DAX3] * sk));
+    float r_ay = p[EV_P_CAY] * r[1] / 2.0f * (expf(-p[EV_P_DAY1] * ay) + expf(-p[EV_P_DAY2] * dl));
+    float r_gz = p[EV_P_CGZ] * r[2] / 2.0f * (expf(-p[EV_P_DGZ1] * gz) + expf(-p[EV_P_DGZ2] * dl));
+    float common = expf(p[EV_P_DW2] * ax) + expf(p[EV_P_DW3] * ay);
+    for (uint8_t i = 0; i < 4u; i++) {
+        float k = fabsf(w->kappa[i]);
+        float r_w = p[EV_P_CW] * p[EV_P_RW] / 3.0f * (expf(p[EV_P_DW1] * (k < 1.0f ? k : 1.0f)) + common);
+        r[3u + i] = clip(r_w, p[EV_P_RW], c);
+    }
+    r[0] = clip(r_ax, p[EV_P_RAX], c);
+    r[1] = clip(r_ay, p[EV_P_RAY], c);
+    r[2] = clip(r_gz, p[EV_P_RGZ], c);
+}
+
+void ev_prior(const ev_model_t *m, float *x, float *P)
+{
+    memset(x, 0, EV_NX * sizeof(float));
+    memset(P, 0, EV_NX * EV_NX * sizeof(float));
+    x[0] = m->p[EV_P_VX0];
+    P[0] = m->p[EV_P_P0V];
+    P[EV_NX + 1] = m->p[EV_P_P0LAT];
+    P[2 * EV_NX + 2] = 0.01f * m->p[EV_P_P0LAT];
+    for (uint8_t i = 3; i < EV_NX; i++) {
+        P[i * EV_NX + i] = m->p[EV_P_P0F];
+    }
+}
+
+void ev_ekf_correct(float *x, float *P, uint8_t n, const float *H, const float *e,
+                    const float *r)
+{
+    float x_pred[EV_NX], ph[EV_NX];
+    memcpy(x_pred, x, n * sizeof(float));
+    for (uint8_t j = 0; j < EV_NY; j++) {
+        const float *hj = H + j * n;
+        float ej = e[j], sum = r[j];
+        for (uint8_t i = 0; i < n; i++) {
+            float acc = 0.0f;
+            for (uint8_t k = 0; k < n; k++) {
+                acc += P[i * n + k] * hj[k];
+            }
+            ph[i] = acc;
+            ej -= hj[i] * (x[i] - x_pred[i]);
+        }
+        for (uint8_t i = 0; i < n; i++) {
+            sum += hj[i] * ph[i];
+        }
+        float inv = 1.0f / sum;
+        for (uint8_t i = 0; i < n; i++) {
+            float k = ph[i] * inv;
+            x[i] += k * ej;
+            for (uint8_t c = 0; c < n; c++) {
+                P[i * n + c] -= k * ph[c];
+            }
+        }
+    }
+}
+
+void ev_symmetrize(float *P, uint8_t n)
+{
+    for (uint8_t i = 0; i < n; i++) {
+        for (uint8_t j = 0; j < i; j++) {
+            float m = 0.5f * (P[i * n + j] + P[j * n + i]);
+            P[i * n + j] = P[j * n + i] = m;
+        }
+    }
+}
+
+uint8_t ev_outputs(const float *x, const float *fy, uint8_t *out)
+{
+    uint8_t status = 0;
+    for (uint8_t i = 0; i < EV_NX; i++) {
+        float v = i < 3u ? x[i] : fy[i - 3u];
+        put_f32(out + 4u * i, v);
+        if (!isfinite(v)) {
+            status = STATUS_NOT_FINITE;
+        }
+    }
+    put_f32(out + 4u * EV_NX, atan2f(x[1], fmaxf_(x[0], 0.1f)) * (180.0f / 3.14159265f));
+    return status;
+}

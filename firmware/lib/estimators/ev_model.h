@@ -1,0 +1,95 @@
+/* Seed 001's distributed-drive EV model that ev_ekf and ev_ukf share, float32
+ * (host: estimators/_ev4wd_model.py, which lists each constant's source).
+ * x = [v_x, v_y, γ, F̃_1y..F̃_4y] (wheels FL, FR, RL, RR); u = δ, F_ix, F_z,i;
+ * y = [a_x, a_y, γ, ω_1..ω_4]. ẋ from note eqs. (1)-(7), (20); y from (5), (29).
+ *
+ * Inputs  a_x, a_y [m/s²], γ [rad/s], ω_1..ω_4 [rad/s], δ [rad], T_1..T_4 [N·m].
+ * Outputs v_x, v_y [m/s], γ [rad/s], F_1y..F_4y [N], β [deg].
+ * Params  T, μ, v_x0, P0 (3), Q (4), fixed R (4), adaptive, c/d of (66)-(69) (15), r_clip. */
+#ifndef VEHIL_ESTIMATORS_EV_MODEL_H
+#define VEHIL_ESTIMATORS_EV_MODEL_H
+
+#include <stdint.h>
+
+#include "estimators/params.h"
+
+#define EV_NX 7u
+#define EV_NY 7u
+#define EV_N_INPUTS 12u
+#define EV_N_OUTPUTS 8u
+
+/* The parameters both filters take first, in the host's order (ev.PARAMS). */
+enum {
+    EV_P_T, EV_P_MU, EV_P_VX0, EV_P_P0V, EV_P_P0LAT, EV_P_P0F, EV_P_QV, EV_P_QVY, EV_P_QR, EV_P_QF,
+    EV_P_RAX, EV_P_RAY, EV_P_RGZ, EV_P_RW, EV_P_ADAPTIVE,
+    EV_P_CAX, EV_P_DAX1, EV_P_DAX2, EV_P_DAX3, EV_P_CAY, EV_P_DAY1, EV_P_DAY2,
+    EV_P_CGZ, EV_P_DGZ1, EV_P_DGZ2, EV_P_CW, EV_P_DW1, EV_P_DW2, EV_P_DW3, EV_P_RCLIP,
+    EV_N_PARAMS
+};
+
+typedef struct {
+    float delta;   /* front steer angle */
+    float cd, sd;  /* its cosine and sine */
+    float fx[4];   /* F_ix (21) */
+    float fz[4];   /* F_z,i from the measured a_x, a_y */
+    float y[EV_NY];
+} ev_inputs_t;
+
+typedef struct {
+    float T, mu, lp; /* lp: the ω̇ low-pass's T / (τ + T) */
+    float p[EV_N_PARAMS];
+    float w_prev[4], w_dot[4];
+    uint8_t have_w, adaptive;
+} ev_model_t;
+
+/* Per-wheel terms at one state; every model function below takes them, so a filter
+ * evaluates the tires once per linearisation point or sigma point. */
+typedef struct {
+    float vix[4], viy[4], alpha[4], fy_qs[4], kappa[4];
+    float ba[4], ty[4]; /* B_y α and C_y atan(B_y α), for the slopes */
+} ev_wheels_t;
+
+/* Their slopes: ∂α_i/∂(v_x, v_y, γ), dκ̂_i/dα_i and dF_y,qs,i/dα_i (κ̂'s α-dependence in). */
+typedef struct {
+    float dalpha[4][3], dk[4], dqs[4];
+} ev_slopes_t;
+
+/* 0 if the n = EV_N_PARAMS + n_own parameters are in range (own ones after the shared),
+ * else 1 + the first bad index. Stores them and resets the input filter. */
+uint8_t ev_model_configure(ev_model_t *m, uint8_t mode, const uint8_t *params,
+                           const param_range_t *own, uint8_t n_own);
+void ev_model_reset(ev_model_t *m);
+
+/* A SAMPLE's sensors into u (F_ix needs ω̇, so this advances the ω̇ filter);
+ * STATUS_NOT_FINITE and nothing changed if one is not finite. */
+uint8_t ev_model_inputs(ev_model_t *m, const uint8_t *in, ev_inputs_t *u);
+
+void ev_wheels(const float *x, const ev_inputs_t *u, float mu, ev_wheels_t *w);
+void ev_slopes(const ev_inputs_t *u, float mu, const ev_wheels_t *w, ev_slopes_t *d);
+/* v̇_x, v̇_y, γ̇ (eqs. 1-7) with the tire-frame lateral forces fy: the 7-state model's
+ * F̃_iy (x + 3) or the 3-state model's quasi-static ones (w->fy_qs). */
+void ev_body_rates(const float *x, const float *fy, const ev_inputs_t *u, float *rates);
+/* 7 states: x + T ẋ, in place (w at x). */
+void ev_step(const ev_model_t *m, float *x, const ev_inputs_t *u, const ev_wheels_t *w);
+/* y = h(x) with lateral forces fy (as for ev_body_rates). */
+void ev_h(const float *x, const float *fy, const ev_inputs_t *u, const ev_wheels_t *w, float *y);
+/* 7 states: F = I + T ∂f/∂x and H = ∂h/∂x (row-major 7×7), analytic as on the host;
+ * either may be NULL. */
+void ev_jacobians(const ev_model_t *m, const float *x, const ev_inputs_t *u,
+                  const ev_wheels_t *w, const ev_slopes_t *d, float *F, float *H);
+/* 3 states (lateral forces quasi-static): F (3×3) and H (7×3); w is only read for H. */
+void ev_jacobians3(const ev_model_t *m, const float *x, const ev_inputs_t *u,
+                   const ev_wheels_t *w, const ev_slopes_t *d, float *F, float *H);
+/* diag R, fixed or by (66)-(69) with κ̂ at the estimate (w). */
+void ev_noise(const ev_model_t *m, const ev_inputs_t *u, const ev_wheels_t *w, float *r);
+void ev_prior(const ev_model_t *m, float *x, float *P);
+/* EKF correction with y_j one at a time (R diagonal, so this is the batch update at the
+ * predicted x): x (n), P (n×n), H (EV_NY×n), innovations e = y - h(x_pred), r = diag R. */
+void ev_ekf_correct(float *x, float *P, uint8_t n, const float *H, const float *e,
+                    const float *r);
+/* P = (P + Pᵀ) / 2, against round-off. */
+void ev_symmetrize(float *P, uint8_t n);
+/* Writes v_x, v_y, γ, the lateral forces fy and β; STATUS_NOT_FINITE if one is not finite. */
+uint8_t ev_outputs(const float *x, const float *fy, uint8_t *out);
+
+#endif

@@ -1,0 +1,188 @@
+"""A distributed-drive EV with four in-wheel motors, the ground truth of seed 001.
+
+The vehicle and tire numbers are note §5.2's suggestions, shared with the filters
+(estimators/_ev4wd_model.py, where each is listed); the paper gives none (note §0.2)
+and used CarSim. This plant is richer than the filters' 7-state model (note §8.2):
+- planar body v_x, v_y, γ plus position and heading for the driver; four wheel
+  rotations I_w ω̇_i = T_i - R F_ix driven (and braked: regenerative) by the motors;
+- the combined-slip MF (13)-(19) on the *true* slip ratio κ_i = (ω_i R - v_ix) /
+  max(|v_ix|, 3 m/s) (the floor keeps the wheel ODE stable at 1 ms), F_x quasi-static,
+  F_y through the first-order relaxation (20), σ_α = 0.4 m;
+- quasi-static load transfer (note §5.2) from the last step's a_x, a_y;
+- aero drag and rolling resistance (3), θ = 0; friction μ is a parameter;
+- per-wheel traction control and ABS (note §8.2): a wheel whose |κ| passes 0.12 has
+  its torque limit cut at 4 kN·m/s until |κ| falls below 0.04, then restored at
+  800 N·m/s, which makes the cycling slip of the paper's Figs. 6-7;
+- integrated by forward Euler at 1 ms (note §5.2), sampled at the scenario's T.
+
+Manoeuvres (`manoeuvre`), each at `speed` km/h held by a PI speed controller:
+0 double lane change: a pure-pursuit driver (preview 0.9 s) on a cosine-blended
+  path, `dlc_offset` m over transitions of `dlc_length` m (ISO 3888-1 is 3.5 m over
+  ~30 m; the paper gives no geometry, note §6.1);
+1 continuous steering: δ = `steer_deg` sin(2π `steer_hz` t) from 1 s, faded in over 1 s;
+2 low-μ traction (note §6.3, Fig. 6): mild torque for 6 s, then rising 90 N·m/s per
+  wheel to 400 N·m; TCS limits the spin, which starts about 8 s;
+3 low-μ ABS braking (Fig. 7): 80 km/h for 5 s, then a regenerative brake torque of
+  60 N·m per wheel with 0.8 s pulses to 450 N·m every 2.5 s that lock the wheels.
+
+Sensors (`noise` = 1, production-like, note §5.2): a_x, a_y σ 0.1 m/s² with biases
+0.05 / -0.04 m/s²; γ σ 0.5 °/s with a 0.2 °/s bias; ω_i σ 0.2 rad/s (resolver); δ σ
+0.05°; motor torque σ 2 N·m. All are sampled, noise-free, with `noise` = 0.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+
+import numpy as np
+
+from vehil.estimators import _ev4wd_model as ev
+from vehil.estimators.base import Param, Signal
+from vehil.plants import register
+from vehil.plants.base import PlantSpec, Trace
+
+DT = 1e-3
+V_FLOOR = 3.0  # m/s: slip-ratio denominator floor
+SLIP_ON, SLIP_OFF = 0.12, 0.04
+CUT_RATE, RESTORE_RATE = 4000.0, 800.0  # N·m/s
+T_MAX = 600.0  # N·m per motor
+PREVIEW_S = 0.9
+
+
+def dlc_path(x: float, offset: float, length: float) -> float:
+    """Lateral position (m) of the lane-change path at distance x: 15 m straight, move
+    over in `length`, hold 25 m, move back in `length`."""
+    x1, x2 = 15.0, 15.0 + length
+    x3, x4 = x2 + 25.0, x2 + 25.0 + length
+    if x < x1 or x > x4:
+        return 0.0
+    if x < x2:
+        return offset * 0.5 * (1 - math.cos(math.pi * (x - x1) / length))
+    if x < x3:
+        return offset
+    return offset * 0.5 * (1 + math.cos(math.pi * (x - x3) / length))
+
+
+def _simulate(p: Mapping[str, float], duration: float, T: float, seed: int) -> Trace:
+    rng = np.random.default_rng(seed)
+    n = int(round(duration / T))
+    sub = max(1, int(round(T / DT)))
+    dt = T / sub
+    man = int(p["manoeuvre"])
+    mu = p["mu"]
+    v_set = p["speed"] / 3.6
+    vx, vy, r = v_set, 0.0, 0.0
+    X, Y, psi = -30.0, 0.0, 0.0  # the lane change starts 30 m + 15 m ahead
+    w = np.full(4, v_set / ev.R_W)
+    fy = np.zeros(4)
+    ax = ay = 0.0
+    limit = np.full(4, T_MAX)
+    cutting = np.zeros(4, bool)
+    integ = 0.0
+    lx, byw, st = ev.LX, ev.BYW, ev.STEERED
+    out = np.zeros((n, 12))
+    truth = np.zeros((n, 7 + 4))  # vx vy r fy1..4, kappa1..4
+    for k in range(n):
+        for j in range(sub):
+            t = (k * sub + j) * dt
+            # Driver: steering.
+            if man == 0:
+                ahead = max(PREVIEW_S * vx, 5.0)
+                gx = X + ahead
+                gy = dlc_path(gx, p["dlc_offset"], p["dlc_length"])
+                dx, dy = gx - X, gy - Y
+                yb = -math.sin(psi) * dx + math.cos(psi) * dy
+                delta = math.atan(2 * ev.WHEELBASE * yb / (dx * dx + dy * dy))
+            elif man == 1:
+                fade = min(max(t - 1.0, 0.0), 1.0)
+                delta = (
+                    fade * math.radians(p["steer_deg"]) * math.sin(2 * math.pi * p["steer_hz"] * t)
+                )
+            else:
+                delta = 0.0
+            # Driver: torque demand per wheel.
+            if man == 2:
+                demand = 80.0 + 90.0 * max(t - 6.0, 0.0)
+                demand = min(demand, 400.0)
+            elif man == 3 and t >= 5.0:
+                demand = -(450.0 if (t - 5.0) % 2.5 < 0.8 else 60.0)
+            else:
+                err = v_set - vx
+                integ += err * dt
+                resist = ev.DRAG * vx * vx + ev.M * ev.G * ev.F_ROLL
+                demand = ev.R_W * (resist + ev.M * (1.5 * err + 0.3 * integ)) / 4
+            # Wheels: kinematics and slips.
+            d = delta * st
+            cd, sd = np.cos(d), np.sin(d)
+            vX, vY = vx - byw * r, vy + lx * r
+            vix = cd * vX + sd * vY
+            viy = -sd * vX + cd * vY
+            alpha = -np.arctan(viy / np.maximum(np.abs(vix), 0.5))
+            kappa = (w * ev.R_W - vix) / np.maximum(np.abs(vix), V_FLOOR)
+            # TCS / ABS: cut the torque limit while a wheel slips, restore it after.
+            cutting = np.where(np.abs(kappa) > SLIP_ON, True, cutting)
+            cutting = np.where(np.abs(kappa) < SLIP_OFF, False, cutting)
+            limit = np.clip(limit + np.where(cutting, -CUT_RATE, RESTORE_RATE) * dt, 0.0, T_MAX)
+            tq = np.clip(demand, -limit, limit)
+            # Tires.
+            dmax = mu * ev.loads(ax, ay)
+            fx0 = ev.mf(kappa, ev.BX, ev.CX, ev.EX, dmax)
+            fx = ev.weight(alpha, ev.BXA, ev.CXA) * fx0
+            fy_qs = ev.weight(kappa, ev.BYK, ev.CYK) * ev.mf(alpha, ev.BY, ev.CY, ev.EY, dmax)
+            fX, fY = cd * fx - sd * fy, sd * fx + cd * fy
+            resist = ev.DRAG * vx * abs(vx) + ev.M * ev.G * ev.F_ROLL * math.tanh(vx / 0.5)
+            ax = (fX.sum() - resist) / ev.M
+            ay = fY.sum() / ev.M
+            mz = float((lx * fY - byw * fX).sum())
+            if j == 0:
+                out[k] = (ax, ay, r, *w, delta, *tq)
+                truth[k] = (vx, vy, r, *fy, *kappa)
+            # Euler step.
+            w = np.maximum(w + dt * (tq - ev.R_W * fx) / ev.I_W, 0.0)
+            fy = fy + dt * np.abs(vix) / ev.SIGMA * (fy_qs - fy)
+            vx, vy, r = vx + dt * (ax + r * vy), vy + dt * (ay - r * vx), r + dt * mz / ev.I_Z
+            X += dt * (vx * math.cos(psi) - vy * math.sin(psi))
+            Y += dt * (vx * math.sin(psi) + vy * math.cos(psi))
+            psi += dt * r
+    if p["noise"] >= 0.5:
+        sd_in = np.array(
+            [ev.SD_ACC, ev.SD_ACC, ev.SD_GYRO, *[ev.SD_W] * 4, math.radians(0.05), *[2.0] * 4]
+        )
+        bias = np.zeros(12)
+        bias[:3] = (0.05, -0.04, math.radians(0.2))
+        out = out + bias + rng.normal(0.0, 1.0, out.shape) * sd_in
+    names = ["ax", "ay", "gz", "w1", "w2", "w3", "w4", "delta", "tq1", "tq2", "tq3", "tq4"]
+    beta = np.degrees(np.arctan2(truth[:, 1], np.maximum(truth[:, 0], 0.1)))
+    tnames = ["vx", "vy", "r", "fy1", "fy2", "fy3", "fy4", "kappa1", "kappa2", "kappa3", "kappa4"]
+    return Trace(
+        t=np.arange(n) * T,
+        signals={nm: out[:, i] for i, nm in enumerate(names)},
+        truth={**{nm: truth[:, i] for i, nm in enumerate(tnames)}, "beta": beta},
+    )
+
+
+SPEC = register(
+    PlantSpec(
+        name="ev4wd",
+        title="Four-in-wheel-motor EV: body, wheels, combined-slip MF, TCS/ABS (seed 001)",
+        params=(
+            Param("manoeuvre", "1", default=0, lo=0, hi=3, doc="0 DLC, 1 sine, 2 TCS, 3 ABS"),
+            Param("speed", "km/h", default=80.0, lo=5.0, hi=160.0, doc="set speed"),
+            Param("mu", "1", default=0.85, lo=0.05, hi=1.2, doc="road friction"),
+            Param("dlc_offset", "m", default=3.5, lo=0.0, hi=5.0, doc="lane-change offset"),
+            Param("dlc_length", "m", default=30.0, lo=10.0, hi=200.0, doc="transition length"),
+            Param(
+                "steer_deg", "deg", default=1.5, lo=0.0, hi=20.0, doc="sine amplitude, road wheel"
+            ),
+            Param("steer_hz", "Hz", default=0.5, lo=0.01, hi=5.0, doc="sine frequency"),
+            Param("noise", "1", default=1, lo=0, hi=1, doc="1: production-like sensors"),
+        ),
+        signals=(*ev.INPUTS,),
+        truth=(
+            *ev.OUTPUTS,
+            *(Signal(f"kappa{i}", "1", doc=f"wheel {i} slip ratio") for i in range(1, 5)),
+        ),
+        simulate=_simulate,
+    )
+)
