@@ -80,7 +80,7 @@ def check_data_in_low_flash(elf: Path) -> None:
                 raise BuildError(
                     f"{elf}: .data loads from flash up to 0x{end:x}, past 64 KB, where QEMU "
                     "7.2's ELPM cannot read it (it ignores RAMPZ): keep the default image "
-                    "under 64 KB (README, \"What runs on the board\")"
+                    'under 64 KB (README, "What runs on the board")'
                 )
             return
     raise BuildError(f"{elf}: no .data in `avr-objdump -h` output:\n{out.stdout}{out.stderr}")
