@@ -36,7 +36,7 @@ def _add_board_options(p: argparse.ArgumentParser) -> None:
         "--faults",
         default=None,
         help="inject link faults once the board is up: drop=P,flip=P,dup=P,insert=P "
-        "(per byte, both ways), delay_ms=D, seed=N",
+        "(per byte, both ways), delay_ms=D, reboot_after=N (writes), seed=N",
     )
 
 

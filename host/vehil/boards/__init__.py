@@ -13,10 +13,16 @@ from vehil.boards.base import Board
 from vehil.boards.native import NativeBoard
 from vehil.boards.qemu import QemuBoard
 from vehil.boards.serialport import SerialBoard
-from vehil.boards.simavr import SimavrBoard, SimavrBootloaderBoard, SimavrEvBoard
+from vehil.boards.simavr import (
+    SimavrBoard,
+    SimavrBootloaderBoard,
+    SimavrEvBoard,
+    SimavrRealtimeBoard,
+)
 
 VIRTUAL_BOARDS: dict[str, type[Board]] = {
     "simavr": SimavrBoard,
+    "simavr-realtime": SimavrRealtimeBoard,
     "simavr-bootloader": SimavrBootloaderBoard,
     "simavr-ev": SimavrEvBoard,
     "qemu": QemuBoard,

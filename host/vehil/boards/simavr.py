@@ -69,6 +69,16 @@ class SimavrBoard(Board):
             self.process = None
 
 
+class SimavrRealtimeBoard(SimavrBoard):
+    """simavr held to the chip's real time, so the UART takes the wire time a Mega's
+    does: the board for latency and loop-rate figures (the default runs ahead)."""
+
+    name = "simavr-realtime"
+
+    def __init__(self, **options: object):
+        super().__init__(realtime=True, **options)  # type: ignore[arg-type]
+
+
 class SimavrEvBoard(SimavrBoard):
     """simavr running the image with seed 001's filters (env offline-ev), which the
     default image leaves out: too slow for a 10 ms step and over 64 KB of flash."""
