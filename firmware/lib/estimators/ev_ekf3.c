@@ -32,16 +32,25 @@ static uint8_t ev_ekf3_configure(void *state, uint8_t mode, const uint8_t *param
 static void predict(ev_ekf3_state_t *s)
 {
     const float *p = s->model.p;
-    float F[9], tmp[9], rates[3];
+    float F[9], FP[9], rates[3];
     /* No tire evaluation here: the forces at x_{k-1|k-1} are the last update's, carried
-     * there to first order, and their slopes are that update's (same u_{k-1}). */
-    ev_jacobians3(&s->model, s->x, &s->u_prev, NULL, &s->d, F, NULL);
+     * there to first order, and their slopes (so J) are that update's (same u_{k-1}). */
+    ev_f3(&s->model, s->x, s->J, F);
     ev_body_rates(s->x, s->fy, &s->u_prev, rates);
     for (uint8_t i = 0; i < 3u; i++) {
         s->x[i] += s->model.T * rates[i];
     }
-    mat_mul_f32(F, s->P, 3, 3, 3, tmp);
-    mat_mul_bt_f32(tmp, F, 3, 3, 3, s->P);
+    mat_mul_f32(F, s->P, 3, 3, 3, FP);
+    /* F P Fᵀ is symmetric: its upper triangle, mirrored */
+    for (uint8_t i = 0; i < 3u; i++) {
+        for (uint8_t j = i; j < 3u; j++) {
+            float acc = 0.0f;
+            for (uint8_t k = 0; k < 3u; k++) {
+                acc += FP[i * 3u + k] * F[j * 3u + k];
+            }
+            s->P[i * 3u + j] = s->P[j * 3u + i] = acc;
+        }
+    }
     s->P[0] += p[EV_P_QV];
     s->P[4] += p[EV_P_QVY];
     s->P[8] += p[EV_P_QR];
@@ -55,7 +64,8 @@ static void update(ev_ekf3_state_t *s, const ev_inputs_t *u)
     ev_wheels(s->x, u, s->model.mu, &w);
     ev_slopes(u, s->model.mu, &w, &s->d);
     ev_noise(&s->model, u, &w, r);
-    ev_jacobians3(&s->model, s->x, u, &w, d, NULL, H);
+    ev_force_slopes3(u, d, s->J);
+    ev_h3(s->x, u, &w, d, s->J, H);
     ev_h(s->x, w.fy_qs, u, &w, e);
     for (uint8_t j = 0; j < EV_NY; j++) {
         e[j] = u->y[j] - e[j];
@@ -85,8 +95,7 @@ static uint8_t ev_ekf3_step(void *state, const uint8_t *in, uint8_t in_len, uint
         if (s->started) {
             predict(s);
         }
-        update(s, &u);
-        ev_symmetrize(s->P, 3);
+        update(s, &u); /* P stays exactly symmetric: no ev_symmetrize */
         s->u_prev = u;
         s->started = 1;
     }

@@ -22,6 +22,7 @@ typedef struct {
     float P[9];
     float fy[4];    /* the lateral forces at x */
     ev_slopes_t d;  /* the slopes at the last update's predicted state */
+    float J[9];     /* and the accelerations' slopes through the forces there */
     uint8_t started;
 } ev_ekf3_state_t;
 

@@ -36,8 +36,11 @@ typedef struct {
 } ev_inputs_t;
 
 typedef struct {
-    float T, mu, lp; /* lp: the ω̇ low-pass's T / (τ + T) */
+    float T, inv_T, mu, lp; /* lp: the ω̇ low-pass's T / (τ + T) */
     float p[EV_N_PARAMS];
+    /* (66)-(69)'s c_j r_j / n_j and the clip bounds of a_x, a_y, γ, ω_i, set with the
+     * parameters: divisions cost 486 cycles each on the chip */
+    float r_scale[4], r_lo[4], r_hi[4];
     float w_prev[4], w_dot[4];
     uint8_t have_w, adaptive;
 } ev_model_t;
@@ -45,8 +48,10 @@ typedef struct {
 /* Per-wheel terms at one state; every model function below takes them, so a filter
  * evaluates the tires once per linearisation point or sigma point. */
 typedef struct {
-    float vix[4], viy[4], alpha[4], fy_qs[4], kappa[4];
-    float ba[4], ty[4]; /* B_y α and C_y atan(B_y α), for the slopes */
+    float vix[4], alpha[4], fy_qs[4], kappa[4];
+    /* for the slopes: max(|v_ix|, 0.5), tan α's magnitude v_iy / that, B_y α,
+     * C_y atan(B_y α), its sine and G_yκ */
+    float den[4], zz[4], ba[4], ty[4], sty[4], g_yk[4];
 } ev_wheels_t;
 
 /* Their slopes: ∂α_i/∂(v_x, v_y, γ), dκ̂_i/dα_i and dF_y,qs,i/dα_i (κ̂'s α-dependence in). */
@@ -77,14 +82,20 @@ void ev_h(const float *x, const float *fy, const ev_inputs_t *u, const ev_wheels
  * either may be NULL. */
 void ev_jacobians(const ev_model_t *m, const float *x, const ev_inputs_t *u,
                   const ev_wheels_t *w, const ev_slopes_t *d, float *F, float *H);
-/* 3 states (lateral forces quasi-static): F (3×3) and H (7×3); w is only read for H. */
-void ev_jacobians3(const ev_model_t *m, const float *x, const ev_inputs_t *u,
-                   const ev_wheels_t *w, const ev_slopes_t *d, float *F, float *H);
+/* 3 states (lateral forces quasi-static): J = ∂(v̇_x, v̇_y, γ̇)/∂(v_x, v_y, γ) through the
+ * forces' slopes alone (3×3), which a prediction with the same u and d reuses. */
+void ev_force_slopes3(const ev_inputs_t *u, const ev_slopes_t *d, float *J);
+/* F = I + T (J + the rest of ∂f/∂x) (3×3). */
+void ev_f3(const ev_model_t *m, const float *x, const float *J, float *F);
+/* H (7×3) at x with w, d and J at x. */
+void ev_h3(const float *x, const ev_inputs_t *u, const ev_wheels_t *w, const ev_slopes_t *d,
+           const float *J, float *H);
 /* diag R, fixed or by (66)-(69) with κ̂ at the estimate (w). */
 void ev_noise(const ev_model_t *m, const ev_inputs_t *u, const ev_wheels_t *w, float *r);
 void ev_prior(const ev_model_t *m, float *x, float *P);
 /* EKF correction with y_j one at a time (R diagonal, so this is the batch update at the
- * predicted x): x (n), P (n×n), H (EV_NY×n), innovations e = y - h(x_pred), r = diag R. */
+ * predicted x): x (n), P (n×n, symmetric, and kept so exactly), H (EV_NY×n), innovations
+ * e = y - h(x_pred), r = diag R. */
 void ev_ekf_correct(float *x, float *P, uint8_t n, const float *H, const float *e,
                     const float *r);
 /* P = (P + Pᵀ) / 2, against round-off. */
