@@ -251,9 +251,9 @@ static void omega_row(const ev_inputs_t *u, const ev_wheels_t *w, const ev_slope
 {
     float cd = cd_of(u, i), sd = sd_of(u, i);
     const float L[3] = {cd, sd, -byw[i] * cd + lx[i] * sd};
+    float a = (1.0f + w->kappa[i]) * (1.0f / R_W), b = w->vix[i] * d->dk[i] * (1.0f / R_W);
     for (uint8_t j = 0; j < 3u; j++) {
-        h[j] = (L[j] * (1.0f + w->kappa[i]) + w->vix[i] * d->dk[i] * d->dalpha[i][j]) *
-               (1.0f / R_W);
+        h[j] = L[j] * a + b * d->dalpha[i][j];
     }
 }
 

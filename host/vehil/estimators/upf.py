@@ -14,7 +14,9 @@ and β. The first sample only corrects the prior.
   and H 7×3. One tire evaluation per step (they dominate the board's cycles), at the
   predicted state: the forces there are carried to the corrected state to first order
   (the force outputs), and the next prediction uses these forces and the same slopes
-  (u_{k-1} is the input of both). p0_f and q_f are unused.
+  (u_{k-1} is the input of both). p0_f and q_f are unused. The board does the
+  measurement update in information form, P⁺ = (P⁻¹ + Hᵀ R⁻¹ H)⁻¹ (two 3×3 inverses
+  are cheaper there than seven scalar updates): the same batch update as `ekf_correct`.
 - UKF: the non-augmented, additive-noise UKF with the paper's UT parameters (κ = 0,
   β = 2, α from `alpha`), sigma points from Cholesky, drawn again from the predicted
   (x, P) for the measurement. Means are taken as χ_0 + Σ W_j (χ_j - χ_0), which is
