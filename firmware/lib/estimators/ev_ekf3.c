@@ -7,13 +7,8 @@
 static void ev_ekf3_reset(void *state)
 {
     ev_ekf3_state_t *s = state;
-    float x[EV_NX], P[EV_NX * EV_NX];
     ev_model_reset(&s->model);
-    ev_prior(&s->model, x, P);
-    memcpy(s->x, x, sizeof s->x);
-    for (uint8_t i = 0; i < 3u; i++) {
-        memcpy(s->P + 3u * i, P + EV_NX * i, 3u * sizeof(float));
-    }
+    ev_prior(&s->model, 3, 0.0f, s->x, s->P);
     memset(s->fy, 0, sizeof s->fy);
     s->started = 0;
 }

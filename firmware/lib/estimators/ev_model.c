@@ -35,8 +35,8 @@ static const float byw[4] = {0.5f * TRACK, -0.5f * TRACK, 0.5f * TRACK, -0.5f * 
 
 static const param_range_t ranges[EV_N_PARAMS] = {
     {1e-3f, 0.05f, 16},  {0.05f, 1.2f, 16},  {0.5f, 60.0f, 16},   {1e-6f, 100.0f, 16},
-    {1e-8f, 10.0f, 16},  {1.0f, 1e8f, 16},   {1e-10f, 1.0f, 16},  {1e-10f, 1.0f, 16},
-    {1e-12f, 1.0f, 16},  {1e-3f, 1e7f, 16},  {1e-8f, 100.0f, 16}, {1e-8f, 100.0f, 16},
+    {1e-8f, 10.0f, 16},  {1e-10f, 1.0f, 16}, {1e-10f, 1.0f, 16},
+    {1e-12f, 1.0f, 16},  {1e-8f, 100.0f, 16}, {1e-8f, 100.0f, 16},
     {1e-10f, 1.0f, 16},  {1e-8f, 100.0f, 16}, {0.0f, 1.0f, 16},   {0.0f, 1e3f, 16},
     {0.0f, 1e3f, 16},    {0.0f, 1.0f, 16},   {0.0f, 1e3f, 16},    {0.0f, 1e3f, 16},
     {0.0f, 1e3f, 16},    {0.0f, 1e4f, 16},   {0.0f, 1e3f, 16},    {0.0f, 1e4f, 16},
@@ -393,16 +393,16 @@ void ev_noise(const ev_model_t *m, const ev_inputs_t *u, const ev_wheels_t *w, f
     r[2] = clip(r_gz, m->r_lo[2], m->r_hi[2]);
 }
 
-void ev_prior(const ev_model_t *m, float *x, float *P)
+void ev_prior(const ev_model_t *m, uint8_t n, float p0_f, float *x, float *P)
 {
-    memset(x, 0, EV_NX * sizeof(float));
-    memset(P, 0, EV_NX * EV_NX * sizeof(float));
+    memset(x, 0, n * sizeof(float));
+    memset(P, 0, n * n * sizeof(float));
     x[0] = m->p[EV_P_VX0];
     P[0] = m->p[EV_P_P0V];
-    P[EV_NX + 1] = m->p[EV_P_P0LAT];
-    P[2 * EV_NX + 2] = 0.01f * m->p[EV_P_P0LAT];
-    for (uint8_t i = 3; i < EV_NX; i++) {
-        P[i * EV_NX + i] = m->p[EV_P_P0F];
+    P[n + 1u] = m->p[EV_P_P0LAT];
+    P[2u * n + 2u] = 0.01f * m->p[EV_P_P0LAT];
+    for (uint8_t i = 3; i < n; i++) {
+        P[i * n + i] = p0_f;
     }
 }
 

@@ -5,7 +5,8 @@
  *
  * Inputs  a_x, a_y [m/s²], γ [rad/s], ω_1..ω_4 [rad/s], δ [rad], T_1..T_4 [N·m].
  * Outputs v_x, v_y [m/s], γ [rad/s], F_1y..F_4y [N], β [deg].
- * Params  T, μ, v_x0, P0 (3), Q (4), fixed R (4), adaptive, c/d of (66)-(69) (15), r_clip. */
+ * Params  T, μ, v_x0, P0 (2), Q (3), fixed R (4), adaptive, c/d of (66)-(69) (15), r_clip;
+ *         the 7-state filters then P0 and Q of the lateral forces (EV_FORCE_RANGES). */
 #ifndef VEHIL_ESTIMATORS_EV_MODEL_H
 #define VEHIL_ESTIMATORS_EV_MODEL_H
 
@@ -18,14 +19,19 @@
 #define EV_N_INPUTS 12u
 #define EV_N_OUTPUTS 8u
 
-/* The parameters both filters take first, in the host's order (ev.PARAMS). */
+/* The parameters every filter takes first, in the host's order (ev.PARAMS). */
 enum {
-    EV_P_T, EV_P_MU, EV_P_VX0, EV_P_P0V, EV_P_P0LAT, EV_P_P0F, EV_P_QV, EV_P_QVY, EV_P_QR, EV_P_QF,
+    EV_P_T, EV_P_MU, EV_P_VX0, EV_P_P0V, EV_P_P0LAT, EV_P_QV, EV_P_QVY, EV_P_QR,
     EV_P_RAX, EV_P_RAY, EV_P_RGZ, EV_P_RW, EV_P_ADAPTIVE,
     EV_P_CAX, EV_P_DAX1, EV_P_DAX2, EV_P_DAX3, EV_P_CAY, EV_P_DAY1, EV_P_DAY2,
     EV_P_CGZ, EV_P_DGZ1, EV_P_DGZ2, EV_P_CW, EV_P_DW1, EV_P_DW2, EV_P_DW3, EV_P_RCLIP,
     EV_N_PARAMS
 };
+
+/* The 7-state filters' own first ones (ev.FORCE_PARAMS): p0_f and q_f, the lateral
+ * forces' P0 and Q, with these ranges. */
+enum { EV_PF_P0F, EV_PF_QF, EV_N_FORCE_PARAMS };
+#define EV_FORCE_RANGES {1.0f, 1e8f, 16}, {1e-3f, 1e7f, 16}
 
 typedef struct {
     float delta;   /* front steer angle */
@@ -92,7 +98,8 @@ void ev_h3(const float *x, const ev_inputs_t *u, const ev_wheels_t *w, const ev_
            const float *J, float *H);
 /* diag R, fixed or by (66)-(69) with κ̂ at the estimate (w). */
 void ev_noise(const ev_model_t *m, const ev_inputs_t *u, const ev_wheels_t *w, float *r);
-void ev_prior(const ev_model_t *m, float *x, float *P);
+/* The prior of n states (3, or EV_NX with each lateral force's variance p0_f): x, P (n×n). */
+void ev_prior(const ev_model_t *m, uint8_t n, float p0_f, float *x, float *P);
 /* EKF correction with y_j one at a time (R diagonal, so this is the batch update at the
  * predicted x): x (n), P (n×n, symmetric, and kept so exactly), H (EV_NY×n), innovations
  * e = y - h(x_pred), r = diag R. */
