@@ -191,17 +191,18 @@ void ev_slopes(const ev_inputs_t *u, float mu, const ev_wheels_t *w, ev_slopes_t
     }
 }
 
-/* (ΣF_X - resistances) / m, ΣF_Y / m, M_z / I_z (eqs. 1-4, 3) */
+/* (ΣF_X - resistances) / m, ΣF_Y / m, M_z / I_z (eqs. 1-4, 3), by axle: the front pair
+ * shares δ and l_f and the rear is not steered, which saves a third of the operations. */
 static void accels(const float *x, const float *fy, const ev_inputs_t *u, float *acc)
 {
-    float sx = 0.0f, sy = 0.0f, mz = 0.0f;
-    for (uint8_t i = 0; i < 4u; i++) {
-        float cd = cd_of(u, i), sd = sd_of(u, i);
-        float fX = cd * u->fx[i] - sd * fy[i], fY = sd * u->fx[i] + cd * fy[i];
-        sx += fX;
-        sy += fY;
-        mz += lx[i] * fY - byw[i] * fX;
-    }
+    const float *fx = u->fx;
+    float cd = u->cd, sd = u->sd;
+    float fx_f = fx[0] + fx[1], fy_f = fy[0] + fy[1], fx_r = fx[2] + fx[3];
+    float fy_r = fy[2] + fy[3];
+    float dX_f = cd * (fx[0] - fx[1]) - sd * (fy[0] - fy[1]); /* F_1X - F_2X */
+    float fY_f = sd * fx_f + cd * fy_f;
+    float sx = cd * fx_f - sd * fy_f + fx_r, sy = fY_f + fy_r;
+    float mz = L_F * fY_f - L_R * fy_r - (0.5f * TRACK) * (dX_f + fx[2] - fx[3]);
     float vx = x[0];
     acc[0] = (sx - (DRAG * vx * fabsf(vx) + ROLL * roll_tanh(vx))) * (1.0f / M_VEH);
     acc[1] = sy * (1.0f / M_VEH);
@@ -312,18 +313,17 @@ void ev_jacobians(const ev_model_t *m, const float *x, const ev_inputs_t *u,
 
 void ev_force_slopes3(const ev_inputs_t *u, const ev_slopes_t *d, float *J)
 {
-    /* ∂(ΣF_X / m, ΣF_Y / m, M_z / I_z)/∂V through the quasi-static forces' dF_y/dα ∂α/∂V */
-    memset(J, 0, 9u * sizeof(float));
-    for (uint8_t i = 0; i < 4u; i++) {
-        float cd = cd_of(u, i), sd = sd_of(u, i);
-        const float arm[3] = {-sd * (1.0f / M_VEH), cd * (1.0f / M_VEH),
-                              (lx[i] * cd + byw[i] * sd) * (1.0f / I_Z)};
-        for (uint8_t j = 0; j < 3u; j++) {
-            float dfy = d->dqs[i] * d->dalpha[i][j];
-            for (uint8_t r = 0; r < 3u; r++) {
-                J[r * 3u + j] += arm[r] * dfy;
-            }
-        }
+    /* ∂(ΣF_X / m, ΣF_Y / m, M_z / I_z)/∂V through the quasi-static forces' dF_y/dα ∂α/∂V,
+     * by axle as in accels */
+    const float a0 = -u->sd * (1.0f / M_VEH), a1 = u->cd * (1.0f / M_VEH);
+    const float a2 = L_F * u->cd * (1.0f / I_Z), a2d = 0.5f * TRACK * u->sd * (1.0f / I_Z);
+    for (uint8_t j = 0; j < 3u; j++) {
+        float g1 = d->dqs[0] * d->dalpha[0][j], g2 = d->dqs[1] * d->dalpha[1][j];
+        float s_f = g1 + g2;
+        float s_r = d->dqs[2] * d->dalpha[2][j] + d->dqs[3] * d->dalpha[3][j];
+        J[j] = a0 * s_f;
+        J[3u + j] = a1 * s_f + s_r * (1.0f / M_VEH);
+        J[6u + j] = a2 * s_f + a2d * (g1 - g2) - (L_R / I_Z) * s_r;
     }
 }
 
