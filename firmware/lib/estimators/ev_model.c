@@ -102,10 +102,12 @@ uint8_t ev_model_inputs(ev_model_t *m, const uint8_t *in, ev_inputs_t *u)
     }
     m->have_w = 1;
     /* Static loads and quasi-static transfer (note §5.2). */
-    float front = M_VEH * 9.81f * L_R / (2.0f * WB) - M_VEH * ax * H_CG / (2.0f * WB);
-    float rear = M_VEH * 9.81f * L_F / (2.0f * WB) + M_VEH * ax * H_CG / (2.0f * WB);
-    float lat_f = M_VEH * ay * H_CG * L_R / (TRACK * WB);
-    float lat_r = M_VEH * ay * H_CG * L_F / (TRACK * WB);
+    /* the constant factors first, so the compiler folds them */
+    float lon = ax * (M_VEH * H_CG / (2.0f * WB));
+    float front = M_VEH * 9.81f * L_R / (2.0f * WB) - lon;
+    float rear = M_VEH * 9.81f * L_F / (2.0f * WB) + lon;
+    float lat_f = ay * (M_VEH * H_CG * L_R / (TRACK * WB));
+    float lat_r = ay * (M_VEH * H_CG * L_F / (TRACK * WB));
     const float fz[4] = {front - lat_f, front + lat_f, rear - lat_r, rear + lat_r};
     for (uint8_t i = 0; i < 4u; i++) {
         u->fz[i] = fz[i] > 0.0f ? fz[i] : 0.0f;
@@ -183,9 +185,9 @@ void ev_slopes(const ev_inputs_t *u, float mu, const ev_wheels_t *w, ev_slopes_t
         if (fabsf(w->ty[i]) > 1.5707963f) {
             cty = -cty;
         }
-        float f0 = dmax * sty, df0 = dmax * CY * BY * cty * inv_q;
+        float f0 = dmax * sty, df0 = dmax * (CY * BY) * cty * inv_q;
         float g_yk = w->g_yk[i]; /* G_yκ = 1/√(1+(B_yκ κ̂)²) */
-        float dg_yk = -bk * g_yk * BYK * g_yk * g_yk;
+        float dg_yk = (-BYK) * bk * g_yk * g_yk * g_yk;
         d->dk[i] = dk;
         d->dqs[i] = g_yk * df0 + f0 * dg_yk * dk; /* d(G_yκ F_y0)/dα */
     }
@@ -236,7 +238,7 @@ void ev_h(const float *x, const float *fy, const ev_inputs_t *u, const ev_wheels
     y[1] = acc[1];
     y[2] = x[2];
     for (uint8_t i = 0; i < 4u; i++) { /* (29) */
-        y[3u + i] = w->vix[i] * (1.0f + w->kappa[i]) / R_W;
+        y[3u + i] = w->vix[i] * (1.0f + w->kappa[i]) * (1.0f / R_W);
     }
 }
 
