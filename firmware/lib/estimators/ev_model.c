@@ -116,6 +116,15 @@ uint8_t ev_model_inputs(ev_model_t *m, const uint8_t *in, ev_inputs_t *u)
     u->sd = sinf(z[7]);
     /* a road-wheel angle is within ±90°, where the cosine is this square root */
     u->cd = fabsf(z[7]) < 1.5707963f ? sqrtf(1.0f - u->sd * u->sd) : cosf(z[7]);
+    for (uint8_t i = 0; i < 4u; i++) {
+        float cd = i < 2u ? u->cd : 1.0f, sd = i < 2u ? u->sd : 0.0f;
+        u->L[i][0] = cd;
+        u->L[i][1] = sd;
+        u->L[i][2] = -byw[i] * cd + lx[i] * sd;
+        u->dviy[i][0] = -sd;
+        u->dviy[i][1] = cd;
+        u->dviy[i][2] = sd * byw[i] + cd * lx[i];
+    }
     memcpy(u->y, z, 3u * sizeof(float));
     memcpy(u->y + 3, w, 4u * sizeof(float));
     return 0;
@@ -136,9 +145,12 @@ static float roll_tanh(float vx)
 void ev_wheels(const float *x, const ev_inputs_t *u, float mu, ev_wheels_t *w)
 {
     for (uint8_t i = 0; i < 4u; i++) {
-        float cd = cd_of(u, i), sd = sd_of(u, i);
         float vX = x[0] - byw[i] * x[2], vY = x[1] + lx[i] * x[2];
-        float vix = cd * vX + sd * vY, viy = -sd * vX + cd * vY;
+        float vix = vX, viy = vY;
+        if (i < 2u) { /* the front wheels turn with δ */
+            vix = u->cd * vX + u->sd * vY;
+            viy = -u->sd * vX + u->cd * vY;
+        }
         float den = fmaxf_(fabsf(vix), 0.5f), zz = viy / den;
         float alpha = -atanf(zz);
         float dmax = mu * u->fz[i], ba = BY * alpha;
@@ -163,9 +175,7 @@ void ev_wheels(const float *x, const ev_inputs_t *u, float mu, ev_wheels_t *w)
 void ev_slopes(const ev_inputs_t *u, float mu, const ev_wheels_t *w, ev_slopes_t *d)
 {
     for (uint8_t i = 0; i < 4u; i++) {
-        float cd = cd_of(u, i), sd = sd_of(u, i);
-        const float L[3] = {cd, sd, -byw[i] * cd + lx[i] * sd};
-        const float dviy[3] = {-sd, cd, sd * byw[i] + cd * lx[i]};
+        const float *L = u->L[i], *dviy = u->dviy[i];
         /* α = -atan(v_iy / max(|v_ix|, 0.5)) */
         float vix = w->vix[i], avix = fabsf(vix);
         float sgn = vix > 0.0f ? 1.0f : (vix < 0.0f ? -1.0f : 0.0f);
@@ -252,8 +262,7 @@ static float resist_slope(float vx)
 static void omega_row(const ev_inputs_t *u, const ev_wheels_t *w, const ev_slopes_t *d,
                       uint8_t i, float *h)
 {
-    float cd = cd_of(u, i), sd = sd_of(u, i);
-    const float L[3] = {cd, sd, -byw[i] * cd + lx[i] * sd};
+    const float *L = u->L[i];
     float a = (1.0f + w->kappa[i]) * (1.0f / R_W), b = w->vix[i] * d->dk[i] * (1.0f / R_W);
     for (uint8_t j = 0; j < 3u; j++) {
         h[j] = L[j] * a + b * d->dalpha[i][j];
@@ -294,7 +303,7 @@ void ev_jacobians(const ev_model_t *m, const float *x, const ev_inputs_t *u,
         F[EV_NX + c] = cd / M_VEH;
         F[2 * EV_NX + c] = (lx[i] * cd + byw[i] * sd) / I_Z;
         /* Row of F̃_iy: ∂/∂V of |v_ix|/σ (G_yκ(κ̂) F_y0(α) - F̃). */
-        const float L[3] = {cd, sd, -byw[i] * cd + lx[i] * sd};
+        const float *L = u->L[i];
         float vix = w->vix[i], avix = fabsf(vix);
         float sgn = vix > 0.0f ? 1.0f : (vix < 0.0f ? -1.0f : 0.0f);
         float q = w->fy_qs[i] - x[c];

@@ -36,6 +36,8 @@ enum { EV_PF_P0F, EV_PF_QF, EV_N_FORCE_PARAMS };
 typedef struct {
     float delta;   /* front steer angle */
     float cd, sd;  /* its cosine and sine */
+    /* ∂v_ix/∂(v_x, v_y, γ) and ∂v_iy/∂(v_x, v_y, γ): δ's alone, so once per sample */
+    float L[4][3], dviy[4][3];
     float fx[4];   /* F_ix (21) */
     float fz[4];   /* F_z,i from the measured a_x, a_y */
     float y[EV_NY];
