@@ -41,8 +41,9 @@ static void inverse3(const float *S, float *out)
 
 /* The batch update in information form, P⁺ = (P⁻¹ + Hᵀ R⁻¹ H)⁻¹ and x⁺ = x + P⁺ Hᵀ R⁻¹ e:
  * with 3 states and 7 measurements two 3×3 inverses cost half of 7 scalar updates.
- * H's row of γ is [0 0 1]. */
-static void correct(float *x, float *P, const float *H, const float *e, const float *r)
+ * H's row of γ is [0 0 1]. The correction x⁺ - x into dx. */
+static void correct(float *x, float *P, const float *H, const float *e, const float *r,
+                    float *dx)
 {
     float Y[9], g[3] = {0.0f, 0.0f, 0.0f};
     inverse3(P, Y);
@@ -64,7 +65,8 @@ static void correct(float *x, float *P, const float *H, const float *e, const fl
     }
     inverse3(Y, P);
     for (uint8_t a = 0; a < 3u; a++) {
-        x[a] += P[a * 3u] * g[0] + P[a * 3u + 1u] * g[1] + P[a * 3u + 2u] * g[2];
+        dx[a] = P[a * 3u] * g[0] + P[a * 3u + 1u] * g[1] + P[a * 3u + 2u] * g[2];
+        x[a] += dx[a];
     }
 }
 
@@ -97,7 +99,7 @@ static void predict(ev_ekf3_state_t *s)
 
 static void update(ev_ekf3_state_t *s, const ev_inputs_t *u)
 {
-    float r[EV_NY], e[EV_NY], H[EV_NY * 3u], x_pred[3];
+    float r[EV_NY], e[EV_NY], H[EV_NY * 3u], dx[3];
     const ev_slopes_t *d = &s->d;
     ev_wheels_t w;
     ev_wheels(s->x, u, s->model.mu, &w);
@@ -109,11 +111,9 @@ static void update(ev_ekf3_state_t *s, const ev_inputs_t *u)
     for (uint8_t j = 0; j < EV_NY; j++) {
         e[j] = u->y[j] - e[j];
     }
-    memcpy(x_pred, s->x, sizeof x_pred);
-    correct(s->x, s->P, H, e, r);
+    correct(s->x, s->P, H, e, r, dx);
     /* the forces at the corrected state, to first order: a third tire evaluation would
      * cost as much as the rest of the update */
-    const float dx[3] = {s->x[0] - x_pred[0], s->x[1] - x_pred[1], s->x[2] - x_pred[2]};
     for (uint8_t i = 0; i < 4u; i++) {
         const float *da = d->dalpha[i];
         s->fy[i] = w.fy_qs[i] + d->dqs[i] * (da[0] * dx[0] + da[1] * dx[1] + da[2] * dx[2]);
