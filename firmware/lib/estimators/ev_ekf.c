@@ -1,22 +1,27 @@
 #include "estimators/ev_ekf.h"
 
 #include "linalg/mat_f32.h"
+#include "proto/wire.h"
+
+static const param_range_t own_ranges[EV_N_FORCE_PARAMS] = {EV_FORCE_RANGES};
 
 static void ev_ekf_reset(void *state)
 {
     ev_ekf_state_t *s = state;
     ev_model_reset(&s->model);
-    ev_prior(&s->model, s->x, s->P);
+    ev_prior(&s->model, EV_NX, s->p0_f, s->x, s->P);
     s->started = 0;
 }
 
 static uint8_t ev_ekf_configure(void *state, uint8_t mode, const uint8_t *params)
 {
     ev_ekf_state_t *s = state;
-    uint8_t bad = ev_model_configure(&s->model, mode, params, NULL, 0);
+    uint8_t bad = ev_model_configure(&s->model, mode, params, own_ranges, EV_N_FORCE_PARAMS);
     if (bad != 0u) {
         return bad;
     }
+    s->p0_f = get_f32(params + 4u * (EV_N_PARAMS + EV_PF_P0F));
+    s->q_f = get_f32(params + 4u * (EV_N_PARAMS + EV_PF_QF));
     ev_ekf_reset(s);
     return 0;
 }
@@ -34,7 +39,7 @@ static void predict(ev_ekf_state_t *s)
     mat_mul_bt_f32(s->tmp, s->F, EV_NX, EV_NX, EV_NX, s->P);
     const float q[3] = {p[EV_P_QV], p[EV_P_QVY], p[EV_P_QR]};
     for (uint8_t i = 0; i < EV_NX; i++) {
-        s->P[i * EV_NX + i] += i < 3u ? q[i] : p[EV_P_QF];
+        s->P[i * EV_NX + i] += i < 3u ? q[i] : s->q_f;
     }
 }
 
@@ -81,7 +86,7 @@ const estimator_t ev_ekf_estimator = {
     .modes = 1u << MODE_F32,
     .n_inputs = EV_N_INPUTS,
     .n_outputs = EV_N_OUTPUTS,
-    .n_params = EV_N_PARAMS,
+    .n_params = EV_N_PARAMS + EV_N_FORCE_PARAMS,
     .configure = ev_ekf_configure,
     .reset = ev_ekf_reset,
     .step = ev_ekf_step,

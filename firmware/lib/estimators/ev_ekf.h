@@ -18,6 +18,7 @@ typedef struct {
     float P[EV_NX * EV_NX];
     float F[EV_NX * EV_NX]; /* the Jacobian F, then H */
     float tmp[EV_NX * EV_NX];
+    float p0_f, q_f; /* the force states' P0 and Q */
     uint8_t started;
 } ev_ekf_state_t;
 

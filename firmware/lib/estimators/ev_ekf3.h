@@ -3,8 +3,8 @@
  * quasi-static combined-slip ones of ev_model at the estimate (no relaxation, eq. 20
  * at steady state). One tire evaluation per step, at the predicted state: the next
  * prediction reuses its slopes and its forces carried to the corrected state to first
- * order (the forces out too). Same inputs, outputs and parameters as ev_ekf (p0_f and q_f unused:
- * no force states). Host: estimators/upf.py (Ekf3). */
+ * order (the forces out too). Same inputs and outputs as ev_ekf, and its parameters but the
+ * force states' (p0_f, q_f). Host: estimators/upf.py (Ekf3). */
 #ifndef VEHIL_ESTIMATORS_EV_EKF3_H
 #define VEHIL_ESTIMATORS_EV_EKF3_H
 
@@ -22,6 +22,7 @@ typedef struct {
     float P[9];
     float fy[4];    /* the lateral forces at x */
     ev_slopes_t d;  /* the slopes at the last update's predicted state */
+    float J[9];     /* and the accelerations' slopes through the forces there */
     uint8_t started;
 } ev_ekf3_state_t;
 

@@ -5,7 +5,8 @@
  *
  * Inputs  a_x, a_y [m/s²], γ [rad/s], ω_1..ω_4 [rad/s], δ [rad], T_1..T_4 [N·m].
  * Outputs v_x, v_y [m/s], γ [rad/s], F_1y..F_4y [N], β [deg].
- * Params  T, μ, v_x0, P0 (3), Q (4), fixed R (4), adaptive, c/d of (66)-(69) (15), r_clip. */
+ * Params  T, μ, v_x0, P0 (2), Q (3), fixed R (4), adaptive, c/d of (66)-(69) (15), r_clip;
+ *         the 7-state filters then P0 and Q of the lateral forces (EV_FORCE_RANGES). */
 #ifndef VEHIL_ESTIMATORS_EV_MODEL_H
 #define VEHIL_ESTIMATORS_EV_MODEL_H
 
@@ -18,26 +19,36 @@
 #define EV_N_INPUTS 12u
 #define EV_N_OUTPUTS 8u
 
-/* The parameters both filters take first, in the host's order (ev.PARAMS). */
+/* The parameters every filter takes first, in the host's order (ev.PARAMS). */
 enum {
-    EV_P_T, EV_P_MU, EV_P_VX0, EV_P_P0V, EV_P_P0LAT, EV_P_P0F, EV_P_QV, EV_P_QVY, EV_P_QR, EV_P_QF,
+    EV_P_T, EV_P_MU, EV_P_VX0, EV_P_P0V, EV_P_P0LAT, EV_P_QV, EV_P_QVY, EV_P_QR,
     EV_P_RAX, EV_P_RAY, EV_P_RGZ, EV_P_RW, EV_P_ADAPTIVE,
     EV_P_CAX, EV_P_DAX1, EV_P_DAX2, EV_P_DAX3, EV_P_CAY, EV_P_DAY1, EV_P_DAY2,
     EV_P_CGZ, EV_P_DGZ1, EV_P_DGZ2, EV_P_CW, EV_P_DW1, EV_P_DW2, EV_P_DW3, EV_P_RCLIP,
     EV_N_PARAMS
 };
 
+/* The 7-state filters' own first ones (ev.FORCE_PARAMS): p0_f and q_f, the lateral
+ * forces' P0 and Q, with these ranges. */
+enum { EV_PF_P0F, EV_PF_QF, EV_N_FORCE_PARAMS };
+#define EV_FORCE_RANGES {1.0f, 1e8f, 16}, {1e-3f, 1e7f, 16}
+
 typedef struct {
     float delta;   /* front steer angle */
     float cd, sd;  /* its cosine and sine */
+    /* ∂v_ix/∂(v_x, v_y, γ) and ∂v_iy/∂(v_x, v_y, γ): δ's alone, so once per sample */
+    float L[4][3], dviy[4][3];
     float fx[4];   /* F_ix (21) */
     float fz[4];   /* F_z,i from the measured a_x, a_y */
     float y[EV_NY];
 } ev_inputs_t;
 
 typedef struct {
-    float T, mu, lp; /* lp: the ω̇ low-pass's T / (τ + T) */
+    float T, inv_T, mu, lp; /* lp: the ω̇ low-pass's T / (τ + T) */
     float p[EV_N_PARAMS];
+    /* (66)-(69)'s c_j r_j / n_j and the clip bounds of a_x, a_y, γ, ω_i, set with the
+     * parameters: divisions cost 486 cycles each on the chip */
+    float r_scale[4], r_lo[4], r_hi[4];
     float w_prev[4], w_dot[4];
     uint8_t have_w, adaptive;
 } ev_model_t;
@@ -45,8 +56,10 @@ typedef struct {
 /* Per-wheel terms at one state; every model function below takes them, so a filter
  * evaluates the tires once per linearisation point or sigma point. */
 typedef struct {
-    float vix[4], viy[4], alpha[4], fy_qs[4], kappa[4];
-    float ba[4], ty[4]; /* B_y α and C_y atan(B_y α), for the slopes */
+    float vix[4], alpha[4], fy_qs[4], kappa[4];
+    /* for the slopes: max(|v_ix|, 0.5), tan α's magnitude v_iy / that, B_y α,
+     * C_y atan(B_y α), its sine and G_yκ */
+    float den[4], zz[4], ba[4], ty[4], sty[4], g_yk[4];
 } ev_wheels_t;
 
 /* Their slopes: ∂α_i/∂(v_x, v_y, γ), dκ̂_i/dα_i and dF_y,qs,i/dα_i (κ̂'s α-dependence in). */
@@ -77,14 +90,21 @@ void ev_h(const float *x, const float *fy, const ev_inputs_t *u, const ev_wheels
  * either may be NULL. */
 void ev_jacobians(const ev_model_t *m, const float *x, const ev_inputs_t *u,
                   const ev_wheels_t *w, const ev_slopes_t *d, float *F, float *H);
-/* 3 states (lateral forces quasi-static): F (3×3) and H (7×3); w is only read for H. */
-void ev_jacobians3(const ev_model_t *m, const float *x, const ev_inputs_t *u,
-                   const ev_wheels_t *w, const ev_slopes_t *d, float *F, float *H);
+/* 3 states (lateral forces quasi-static): J = ∂(v̇_x, v̇_y, γ̇)/∂(v_x, v_y, γ) through the
+ * forces' slopes alone (3×3), which a prediction with the same u and d reuses. */
+void ev_force_slopes3(const ev_inputs_t *u, const ev_slopes_t *d, float *J);
+/* F = I + T (J + the rest of ∂f/∂x) (3×3). */
+void ev_f3(const ev_model_t *m, const float *x, const float *J, float *F);
+/* H (7×3) at x with w, d and J at x. */
+void ev_h3(const float *x, const ev_inputs_t *u, const ev_wheels_t *w, const ev_slopes_t *d,
+           const float *J, float *H);
 /* diag R, fixed or by (66)-(69) with κ̂ at the estimate (w). */
 void ev_noise(const ev_model_t *m, const ev_inputs_t *u, const ev_wheels_t *w, float *r);
-void ev_prior(const ev_model_t *m, float *x, float *P);
+/* The prior of n states (3, or EV_NX with each lateral force's variance p0_f): x, P (n×n). */
+void ev_prior(const ev_model_t *m, uint8_t n, float p0_f, float *x, float *P);
 /* EKF correction with y_j one at a time (R diagonal, so this is the batch update at the
- * predicted x): x (n), P (n×n), H (EV_NY×n), innovations e = y - h(x_pred), r = diag R. */
+ * predicted x): x (n), P (n×n, symmetric, and kept so exactly), H (EV_NY×n), innovations
+ * e = y - h(x_pred), r = diag R. */
 void ev_ekf_correct(float *x, float *P, uint8_t n, const float *H, const float *e,
                     const float *r);
 /* P = (P + Pᵀ) / 2, against round-off. */

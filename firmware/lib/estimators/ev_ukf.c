@@ -6,14 +6,14 @@
 #include "linalg/chol_f32.h"
 #include "proto/wire.h"
 
-enum { P_ALPHA, N_OWN };
-static const param_range_t own_ranges[N_OWN] = {{1e-4f, 1.0f, 16}};
+enum { P_ALPHA = EV_N_FORCE_PARAMS, N_OWN };
+static const param_range_t own_ranges[N_OWN] = {EV_FORCE_RANGES, {1e-4f, 1.0f, 16}};
 
 static void ev_ukf_reset(void *state)
 {
     ev_ukf_state_t *s = state;
     ev_model_reset(&s->model);
-    ev_prior(&s->model, s->x, s->P);
+    ev_prior(&s->model, EV_NX, s->p0_f, s->x, s->P);
     s->started = 0;
 }
 
@@ -24,7 +24,10 @@ static uint8_t ev_ukf_configure(void *state, uint8_t mode, const uint8_t *params
     if (bad != 0u) {
         return bad;
     }
-    float a = get_f32(params + 4u * EV_N_PARAMS);
+    const uint8_t *own = params + 4u * EV_N_PARAMS;
+    s->p0_f = get_f32(own + 4u * EV_PF_P0F);
+    s->q_f = get_f32(own + 4u * EV_PF_QF);
+    float a = get_f32(own + 4u * P_ALPHA);
     float n = (float)EV_NX, lam = a * a * n - n; /* (42), κ = 0 */
     s->spread = sqrtf(n + lam);
     s->wm0 = lam / (n + lam);
@@ -95,7 +98,7 @@ static uint8_t predict(ev_ukf_state_t *s)
     const float *p = s->model.p;
     const float q[3] = {p[EV_P_QV], p[EV_P_QVY], p[EV_P_QR]};
     for (uint8_t i = 0; i < EV_NX; i++) {
-        s->P[i * EV_NX + i] += i < 3u ? q[i] : p[EV_P_QF];
+        s->P[i * EV_NX + i] += i < 3u ? q[i] : s->q_f;
     }
     return 0;
 }

@@ -79,11 +79,9 @@ PARAMS = (
     Param("vx0", "m/s", default=22.2, lo=0.5, hi=60.0, doc="initial v_x"),
     Param("p0_v", "(m/s)^2", default=1.0, lo=1e-6, hi=100.0, doc="P0 of v_x"),
     Param("p0_lat", "(m/s)^2", default=0.01, lo=1e-8, hi=10.0, doc="P0 of v_y; γ gets 1 % of it"),
-    Param("p0_f", "N^2", default=4e4, lo=1.0, hi=1e8, doc="P0 of each lateral force"),
     Param("q_v", "(m/s)^2", default=1e-4, lo=1e-10, hi=1.0, doc="Q of v_x per step"),
     Param("q_vy", "(m/s)^2", default=1e-4, lo=1e-10, hi=1.0, doc="Q of v_y per step"),
     Param("q_r", "(rad/s)^2", default=4e-6, lo=1e-12, hi=1.0, doc="Q of γ per step"),
-    Param("q_f", "N^2", default=2500.0, lo=1e-3, hi=1e7, doc="Q of each F̃_y per step"),
     Param("r_ax", "(m/s^2)^2", default=SD_ACC**2, lo=1e-8, hi=100.0, doc="fixed R: a_x"),
     Param("r_ay", "(m/s^2)^2", default=SD_ACC**2, lo=1e-8, hi=100.0, doc="fixed R: a_y"),
     Param("r_gz", "(rad/s)^2", default=SD_GYRO**2, lo=1e-10, hi=1.0, doc="fixed R: γ"),
@@ -107,6 +105,11 @@ PARAMS = (
     Param("d_w3", "s^2/m", default=0.5, lo=0.0, hi=1e2, doc="1/(2 m/s²) of |a_y|"),
     Param("r_clip", "1", default=100.0, lo=1.0, hi=1e6, doc="r within fixed R ×/÷ r_clip"),
 )
+# The 7-state filters' own, after PARAMS: the reduced EKF has no force states.
+FORCE_PARAMS = (
+    Param("p0_f", "N^2", default=4e4, lo=1.0, hi=1e8, doc="P0 of each lateral force"),
+    Param("q_f", "N^2", default=2500.0, lo=1e-3, hi=1e7, doc="Q of each F̃_y per step"),
+)
 
 
 def loads(ax: float | np.ndarray, ay: float | np.ndarray) -> np.ndarray:
@@ -118,6 +121,13 @@ def loads(ax: float | np.ndarray, ay: float | np.ndarray) -> np.ndarray:
     lat_r = M * ay * H_CG * L_F / (TRACK * WHEELBASE)
     fz = np.stack([front - lat_f, front + lat_f, rear - lat_r, rear + lat_r], axis=-1)
     return np.maximum(fz, 0.0)
+
+
+def roll_tanh(vx: float | np.ndarray) -> np.ndarray:
+    """tanh(v_x / 0.5) of the rolling resistance, ±1 past |v_x| = 5 m/s (within 4e-9, and
+    exactly 1 in float32): the board skips its tanhf there, and so does the reference."""
+    vx = np.asarray(vx)
+    return np.where(np.abs(vx) > 5.0, np.sign(vx), np.tanh(np.clip(vx, -5.0, 5.0) / 0.5))
 
 
 def mf(x: np.ndarray, b: float, c: float, e: float, d: np.ndarray) -> np.ndarray:
@@ -199,7 +209,7 @@ def body_forces(
     fX = cd * u.fx - sd * fy  # (1)-(2)
     fY = sd * u.fx + cd * fy
     vx = x[..., 0]
-    resist = DRAG * vx * np.abs(vx) + M * G * F_ROLL * np.tanh(vx / 0.5)
+    resist = DRAG * vx * np.abs(vx) + M * G * F_ROLL * roll_tanh(vx)
     return fX.sum(-1) - resist, fY.sum(-1), (LX * fY - BYW * fX).sum(-1)
 
 
@@ -266,15 +276,18 @@ def fixed_r(p: Mapping[str, float]) -> np.ndarray:
     return np.array([p["r_ax"], p["r_ay"], p["r_gz"], *[p["r_w"]] * 4])
 
 
-def q_diag(p: Mapping[str, float]) -> np.ndarray:
-    return np.array([p["q_v"], p["q_vy"], p["q_r"], *[p["q_f"]] * 4])
+def q_diag(p: Mapping[str, float], n: int = N_X) -> np.ndarray:
+    """diag Q of n states: v_x, v_y, γ and, for 7, the forces."""
+    forces = [p["q_f"]] * 4 if n == N_X else []
+    return np.array([p["q_v"], p["q_vy"], p["q_r"], *forces])
 
 
-def x0(p: Mapping[str, float]) -> tuple[np.ndarray, np.ndarray]:
-    """Prior mean and covariance (note §5.2)."""
-    x = np.zeros(N_X)
+def x0(p: Mapping[str, float], n: int = N_X) -> tuple[np.ndarray, np.ndarray]:
+    """Prior mean and covariance of n states (7, or the reduced EKF's 3) (note §5.2)."""
+    x = np.zeros(n)
     x[0] = p["vx0"]
-    return x, np.diag([p["p0_v"], p["p0_lat"], p["p0_lat"] * 0.01, *[p["p0_f"]] * 4])
+    forces = [p["p0_f"]] * 4 if n == N_X else []
+    return x, np.diag([p["p0_v"], p["p0_lat"], p["p0_lat"] * 0.01, *forces])
 
 
 def outputs(x: np.ndarray) -> np.ndarray:
@@ -283,7 +296,7 @@ def outputs(x: np.ndarray) -> np.ndarray:
 
 
 def _resist_slope(vx: float) -> float:
-    return 2 * DRAG * abs(vx) + M * G * F_ROLL * (1 - math.tanh(vx / 0.5) ** 2) / 0.5
+    return 2 * DRAG * abs(vx) + M * G * F_ROLL * (1 - float(roll_tanh(vx)) ** 2) / 0.5
 
 
 @dataclass(frozen=True)

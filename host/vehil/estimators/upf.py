@@ -14,7 +14,9 @@ and β. The first sample only corrects the prior.
   and H 7×3. One tire evaluation per step (they dominate the board's cycles), at the
   predicted state: the forces there are carried to the corrected state to first order
   (the force outputs), and the next prediction uses these forces and the same slopes
-  (u_{k-1} is the input of both). p0_f and q_f are unused.
+  (u_{k-1} is the input of both); so it takes neither p0_f nor q_f. The board does the
+  measurement update in information form, P⁺ = (P⁻¹ + Hᵀ R⁻¹ H)⁻¹ (two 3×3 inverses
+  are cheaper there than seven scalar updates): the same batch update as `ekf_correct`.
 - UKF: the non-augmented, additive-noise UKF with the paper's UT parameters (κ = 0,
   β = 2, α from `alpha`), sigma points from Cholesky, drawn again from the predicted
   (x, P) for the measurement. Means are taken as χ_0 + Σ W_j (χ_j - χ_0), which is
@@ -76,12 +78,14 @@ def ut_mean(chi: np.ndarray, wm: np.ndarray) -> np.ndarray:
 class _Filter(ABC):
     """What the EKF and UKF share: the inputs, the prior, R and the outputs."""
 
+    N = ev.N_X  # states
+
     def __init__(self, p: Mapping[str, float]):
         self.p = p
         self.mu, self.T = p["mu"], p["T"]
         self.pre = ev.Preprocess(self.T)
-        self.x, self.P = ev.x0(p)
-        self.Q = np.diag(ev.q_diag(p))
+        self.x, self.P = ev.x0(p, self.N)
+        self.Q = np.diag(ev.q_diag(p, self.N))
         self.u_prev: ev.Inputs | None = None
         self.flags = 0
         self.r_history: list[np.ndarray] = []
@@ -145,10 +149,10 @@ class Ekf(_Filter):
 class Ekf3(_Filter):
     """step(12 sensors) -> [v_x, v_y, γ, F_1y..F_4y, β], 3 states (see above)."""
 
+    N = 3
+
     def __init__(self, p: Mapping[str, float]):
         super().__init__(p)
-        self.x, self.P = self.x[:3], self.P[:3, :3]
-        self.Q = self.Q[:3, :3]
         self.fy = np.zeros(4)
         self.slopes: ev.Slopes | None = None
 
@@ -300,8 +304,9 @@ class Upf:
         self.X, self.P = xs[idx], P_upd[idx]
 
 
+EKF_PARAMS = (*ev.PARAMS, *ev.FORCE_PARAMS)
 BOARD_PARAMS = (
-    *ev.PARAMS,
+    *EKF_PARAMS,
     Param("alpha", "1", default=1.0, lo=1e-4, hi=1.0, doc="UT spread α (paper 1e-3; see above)"),
 )
 DOC = __doc__ or ""
@@ -314,7 +319,7 @@ EKF = register(
         inputs=ev.INPUTS,
         outputs=ev.OUTPUTS,
         reference=Ekf,
-        params=ev.PARAMS,
+        params=EKF_PARAMS,
         modes=("F32",),
         paper="001-upf-distributed-ev",
         doc=DOC,
