@@ -311,47 +311,37 @@ BOARD_PARAMS = (
 )
 DOC = __doc__ or ""
 
-EKF = register(
-    EstimatorSpec(
-        name="ev_ekf",
-        c_id=50,
-        title="EKF on the 7-state EV model, fixed or adaptive R (seed 001)",
-        inputs=ev.INPUTS,
-        outputs=ev.OUTPUTS,
-        reference=Ekf,
-        params=EKF_PARAMS,
-        modes=("F32",),
-        paper="001-upf-distributed-ev",
-        doc=DOC,
-    )
-)
 
-EKF3 = register(
-    EstimatorSpec(
-        name="ev_ekf3",
-        c_id=52,
-        title="EKF on the 3-state EV model, quasi-static lateral forces (seed 001, board)",
-        inputs=ev.INPUTS,
-        outputs=ev.OUTPUTS,
-        reference=Ekf3,
-        params=ev.PARAMS,
-        modes=("F32",),
-        paper="001-upf-distributed-ev",
-        doc=DOC,
+def _board_filter(
+    name: str, c_id: int, title: str, reference: type[_Filter], params: tuple[Param, ...]
+) -> EstimatorSpec:
+    """A seed-001 filter the board runs: the EV model's signals, float32."""
+    return register(
+        EstimatorSpec(
+            name=name,
+            c_id=c_id,
+            title=title,
+            inputs=ev.INPUTS,
+            outputs=ev.OUTPUTS,
+            reference=reference,
+            params=params,
+            modes=("F32",),
+            paper="001-upf-distributed-ev",
+            doc=DOC,
+        )
     )
-)
 
-UKF = register(
-    EstimatorSpec(
-        name="ev_ukf",
-        c_id=51,
-        title="UKF on the 7-state EV model, fixed or adaptive R (seed 001)",
-        inputs=ev.INPUTS,
-        outputs=ev.OUTPUTS,
-        reference=Ukf,
-        params=BOARD_PARAMS,
-        modes=("F32",),
-        paper="001-upf-distributed-ev",
-        doc=DOC,
-    )
+
+EKF = _board_filter(
+    "ev_ekf", 50, "EKF on the 7-state EV model, fixed or adaptive R (seed 001)", Ekf, EKF_PARAMS
+)
+EKF3 = _board_filter(
+    "ev_ekf3",
+    52,
+    "EKF on the 3-state EV model, quasi-static lateral forces (seed 001, board)",
+    Ekf3,
+    ev.PARAMS,
+)
+UKF = _board_filter(
+    "ev_ukf", 51, "UKF on the 7-state EV model, fixed or adaptive R (seed 001)", Ukf, BOARD_PARAMS
 )
