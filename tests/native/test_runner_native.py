@@ -72,3 +72,19 @@ def test_a_loop_that_gets_wrong_feedback_drifts_off(run_scenario) -> None:  # no
         loop.apply({"y": 0.0})
     _, _, truth = loop.measure()
     assert abs(truth["y"]) > 1.0  # it ran away: feedback is what kept the run on track
+
+
+def test_a_closed_loop_survives_a_board_reset_with_the_same_outputs(built) -> None:  # noqa: ANN001
+    """The loop's plant is not rerun: the rebooted board catches up on the samples it had
+    answered, each answer checked, and the loop goes on from where it was."""
+    from rich.console import Console
+
+    from vehil.boards import make_board
+
+    sc = dataclasses.replace(scenario.load("s5-iso-active-eso"), duration=5.0)
+    broken = runner.run(
+        sc, make_board("native", faults="reboot_after=300"), console=Console(quiet=True)
+    )
+    clean = runner.run(sc, "native", console=Console(quiet=True))
+    assert broken.ended == "completed" and [r.at_sample for r in broken.resumes] == [299]
+    assert (broken.board_out == clean.board_out).all()
