@@ -75,6 +75,22 @@ def ut_mean(chi: np.ndarray, wm: np.ndarray) -> np.ndarray:
     return chi[..., 0, :] + np.einsum("...jk,j->...k", chi[..., 1:, :] - chi[..., :1, :], wm[1:])
 
 
+def _accept(filt: _Filter | Upf, z: np.ndarray) -> ev.Inputs | None:
+    """A sample's inputs through the filter's preprocessing; None, flagged NOT_FINITE and
+    with the state left alone, if a sensor value is NaN or infinite."""
+    z = np.asarray(z, dtype=np.float64)
+    filt.flags = 0
+    if not np.all(np.isfinite(z)):
+        filt.flags = NOT_FINITE
+        return None
+    return filt.pre(z)
+
+
+def _noise(x: np.ndarray, u: ev.Inputs, mu: float, p: Mapping[str, float]) -> np.ndarray:
+    """R at this sample: (66)-(69) from the slips at x, or the fixed R."""
+    return ev.adaptive_r(u, ev.wheels(x, u, mu).kappa, p)
+
+
 class _Filter(ABC):
     """What the EKF and UKF share: the inputs, the prior, R and the outputs."""
 
@@ -91,12 +107,9 @@ class _Filter(ABC):
         self.r_history: list[np.ndarray] = []
 
     def step(self, z: np.ndarray) -> np.ndarray:
-        z = np.asarray(z, dtype=np.float64)
-        self.flags = 0
-        if not np.all(np.isfinite(z)):
-            self.flags = NOT_FINITE
+        u = _accept(self, z)
+        if u is None:
             return ev.outputs(self.x)
-        u = self.pre(z)
         if self.u_prev is not None:
             self.predict(self.u_prev)
         self.update(u)
@@ -105,7 +118,7 @@ class _Filter(ABC):
         return ev.outputs(self.x)
 
     def noise(self, u: ev.Inputs) -> np.ndarray:
-        R = ev.adaptive_r(u, ev.wheels(self.x, u, self.mu).kappa, self.p)
+        R = _noise(self.x, u, self.mu, self.p)
         self.r_history.append(R)
         return R
 
@@ -233,15 +246,10 @@ class Upf:
         self.flags = 0
 
     def step(self, z: np.ndarray) -> np.ndarray:
-        z = np.asarray(z, dtype=np.float64)
-        self.flags = 0
-        if not np.all(np.isfinite(z)):
-            self.flags = NOT_FINITE
+        u = _accept(self, z)
+        if u is None:
             return ev.outputs(self.x)
-        u = self.pre(z)
-        kappa = ev.wheels(self.x, u, self.mu).kappa
-        r = ev.adaptive_r(u, kappa, self.p)
-        self._step(u, r)
+        self._step(u, _noise(self.x, u, self.mu, self.p))
         self.u_prev = u
         return ev.outputs(self.x)
 
