@@ -235,8 +235,8 @@ class Link:
             if name == "SAMPLE" and "index" not in fields:
                 fields = {"index": self.sample_index, **fields}
                 self.sample_index = (self.sample_index + 1) & 0xFFFF
-            elif name == "RESET" and fields.get("what") == 0:
-                self.sample_index = 0
+            elif name == "CONFIG" or (name == "RESET" and fields.get("what") == 0):
+                self.sample_index = 0  # the board counts from 0 again
             request = _Pending(name, SCHEMA.messages[name].pack(**fields))
             size = len(framing.encode(0, 0, request.body))
             while pending and (len(pending) >= max_frames or in_flight + size > budget):
@@ -352,7 +352,6 @@ class Link:
         if mode not in SCHEMA.mode:
             raise ValueError(f"unknown numeric mode {mode!r}; known: {', '.join(SCHEMA.mode)}")
         self.request("CONFIG", estimator=est.id, mode=SCHEMA.mode[mode], params=params)
-        self.sample_index = 0
 
     def set_baud(self, baud: int) -> None:
         """Switches board and host to a new baud rate (the board ACKs at the old one)."""

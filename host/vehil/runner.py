@@ -256,17 +256,23 @@ class Resume:
 MAX_RESUMES = 3
 
 
-def _catch_up(link: Link, sc: Scenario, history: list[tuple[bytes, bytes]]) -> None:
+def _configure(link: Link, sc: Scenario) -> None:
+    spec = sc.estimator
+    link.configure(spec.name, sc.mode, spec.encode_params(sc.params, sc.mode))
+
+
+def _catch_up(link: Link, source: _Drive | _Loop, sc: Scenario, answers: list[bytes]) -> None:
     """A board that rebooted gets the estimator configured again and every sample it had
-    seen; each answer must repeat the one it gave before, bit for bit."""
+    answered; each answer must repeat the one it gave before, bit for bit."""
     spec = sc.estimator
     link.hello()
-    link.configure(spec.name, sc.mode, spec.encode_params(sc.params, sc.mode))
-    replies = link.pipeline(("SAMPLE", {"inputs": body}) for body, _ in history)
-    for k, (reply, (_, before)) in enumerate(zip(replies, history, strict=True)):
+    _configure(link, sc)
+    frames = (spec.encode_inputs(source.row(k)[1], sc.mode) for k in range(len(answers)))
+    replies = link.pipeline(("SAMPLE", {"inputs": body}) for body in frames)
+    for k, (reply, before) in enumerate(zip(replies, answers, strict=True)):
         if reply.fields()["outputs"] != before:
             raise VehilError(
-                f"the board rebooted and, given samples 0..{len(history) - 1} again, answered "
+                f"the board rebooted and, given samples 0..{len(answers) - 1} again, answered "
                 f"sample {k} differently: it cannot be resumed (non-deterministic estimator?)"
             )
 
@@ -283,15 +289,12 @@ def _on_link(
 ) -> None:
     """Streams the scenario. With `resumes`, a board reset in a lockstep run is survived:
     the board catches up from configuration (see _catch_up) and the run goes on."""
-    spec = sc.estimator
-    link.configure(spec.name, sc.mode, spec.encode_params(sc.params, sc.mode))
-    history: list[tuple[bytes, bytes]] = []  # (inputs, outputs) as on the wire
+    _configure(link, sc)
+    answers: list[bytes] = []  # each sample's outputs as on the wire
     while True:
         try:
-            for k, reply, late, out in _stream(link, source, sc, realtime, window, len(history)):
-                history.append(
-                    (spec.encode_inputs(source.row(k)[1], sc.mode), reply.fields()["outputs"])
-                )
+            for k, reply, late, out in _stream(link, source, sc, realtime, window, len(answers)):
+                answers.append(reply.fields()["outputs"])
                 if on_sample is not None:
                     on_sample(k, reply, late, out)
             return
@@ -299,8 +302,8 @@ def _on_link(
             if resumes is None or realtime or len(resumes) >= MAX_RESUMES:
                 raise
             started = time.perf_counter()
-            _catch_up(link, sc, history)
-            resumes.append(Resume(len(history), time.perf_counter() - started, str(exc)))
+            _catch_up(link, source, sc, answers)
+            resumes.append(Resume(len(answers), time.perf_counter() - started, str(exc)))
 
 
 def native_outputs(scenario: Scenario) -> np.ndarray:
