@@ -15,10 +15,6 @@ int main(void)
     sei();
     dispatch_init();
     for (;;) {
-        wdt_reset();
-        int16_t byte = uart_read();
-        if (byte >= 0) {
-            dispatch_byte((uint8_t)byte);
-        }
+        dispatch_byte(uart_wait_byte());
     }
 }

@@ -9,8 +9,8 @@
 #define UART_TX_SIZE 256u /* power of two: 8-bit indices wrap by themselves */
 
 void uart_init(uint32_t baud);
-/* Next received byte, or -1 if none is waiting. */
-int16_t uart_read(void);
+/* Waits for the next received byte, keeping the watchdog fed meanwhile. */
+uint8_t uart_wait_byte(void);
 /* Queues bytes; waits while the TX ring is full. */
 void uart_write(const uint8_t *data, uint16_t len);
 /* Waits until the last queued byte has been shifted out. */

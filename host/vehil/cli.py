@@ -92,6 +92,11 @@ def ping_table(board: str, s: PingSummary) -> Table:
         f"wire limit {s.wire_limit_s * 1e3:.3f} ms for {s.wire_bytes:.0f} B at 10 bits/byte; "
         f"p50 round trip = {rtt['p50'] / s.wire_limit_s:.2f} x wire limit; no loss"
     )
+    if s.clock_backsteps:
+        t.caption += (
+            f"; the board clock went backwards {s.clock_backsteps} times "
+            "(those intervals are left out)"
+        )
     return t
 
 

@@ -20,6 +20,7 @@ class PingSummary:
     f_cpu: int
     rtt_s: np.ndarray  # host wall clock, per exchange
     board_interval_s: np.ndarray  # board clock between consecutive PONGs
+    clock_backsteps: int  # intervals left out because the board clock went backwards
     wire_bytes: float  # mean request + reply bytes on the wire
 
     @property
@@ -58,7 +59,10 @@ def run_ping(
         stamps.append(fields["timestamp"])
         wire.append(reply.request_wire_bytes + reply.reply_wire_bytes)
     f_cpu = link.info.f_cpu
-    intervals = np.mod(np.diff(np.array(stamps, dtype=np.int64)), 2**32) / f_cpu
+    # The stamp is a 32-bit cycle count: differences wrap. QEMU raises Timer1's overflow
+    # a moment after the count wraps, so its clock can step back 65,536 cycles.
+    steps = np.mod(np.diff(np.array(stamps, dtype=np.int64)) + 2**31, 2**32) - 2**31
+    intervals = steps[steps >= 0] / f_cpu
     return PingSummary(
         count=count,
         payload_bytes=str(size) if size is not None else f"0..{room} random",
@@ -67,5 +71,6 @@ def run_ping(
         f_cpu=f_cpu,
         rtt_s=np.array(rtts),
         board_interval_s=intervals,
+        clock_backsteps=int((steps < 0).sum()),
         wire_bytes=float(np.mean(wire)),
     )
