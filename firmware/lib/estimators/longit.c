@@ -20,15 +20,20 @@ uint8_t longit_check(const uint8_t *params, uint8_t mode, const param_range_t *o
     return bad;
 }
 
-void longit_configure(longit_t *l, const uint8_t *params, uint8_t first)
+static float shared(const uint8_t *params, uint8_t first, uint8_t i, uint8_t mode)
 {
-    l->eps = get_f32(params + 4u * (first + LONGIT_EPS));
-    l->half_rho = 0.5f * get_f32(params + 4u * (first + LONGIT_RHO));
-    l->g_cos = get_f32(params + 4u * (first + LONGIT_G)) / cosf(l->eps);
-    l->m0 = get_f32(params + 4u * (first + LONGIT_M0));
-    l->cda0 = get_f32(params + 4u * (first + LONGIT_CDA0));
-    l->T = get_f32(params + 4u * (first + LONGIT_T));
-    float hz = get_f32(params + 4u * (first + LONGIT_PREFILTER_HZ));
+    return param_value(params, (uint8_t)(first + i), mode, longit_ranges[i].q);
+}
+
+void longit_configure(longit_t *l, const uint8_t *params, uint8_t first, uint8_t mode)
+{
+    l->eps = shared(params, first, LONGIT_EPS, mode);
+    l->half_rho = 0.5f * shared(params, first, LONGIT_RHO, mode);
+    l->g_cos = shared(params, first, LONGIT_G, mode) / cosf(l->eps);
+    l->m0 = shared(params, first, LONGIT_M0, mode);
+    l->cda0 = shared(params, first, LONGIT_CDA0, mode);
+    l->T = shared(params, first, LONGIT_T, mode);
+    float hz = shared(params, first, LONGIT_PREFILTER_HZ, mode);
     l->filter = hz > 0.0f;
     /* Butterworth by the bilinear transform, prewarped to hz. */
     float k = tanf(3.14159265f * hz * l->T);

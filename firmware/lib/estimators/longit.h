@@ -34,8 +34,8 @@ typedef struct {
  * else 1 + the index of the first bad one. */
 uint8_t longit_check(const uint8_t *params, uint8_t mode, const param_range_t *own, uint8_t n_own);
 
-/* Reads the shared parameters starting at index `first`. */
-void longit_configure(longit_t *l, const uint8_t *params, uint8_t first);
+/* Reads the shared parameters starting at index `first`, in either numeric mode. */
+void longit_configure(longit_t *l, const uint8_t *params, uint8_t first, uint8_t mode);
 
 /* The prefilter back to its start (it settles on the next sample). */
 void longit_reset(longit_t *l);

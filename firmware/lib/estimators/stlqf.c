@@ -97,7 +97,7 @@ static uint8_t stlqf_configure(void *state, uint8_t mode, const uint8_t *params)
     if (!band_factor(s->band, a)) {
         return 1u + P_A11; /* A is not positive definite */
     }
-    longit_configure(&s->model, params, N_OWN);
+    longit_configure(&s->model, params, N_OWN, mode);
     float T = s->model.T;
     s->c1 = p[P_CHI1] / T;
     s->c2 = p[P_CHI2] / (T * T);

@@ -304,7 +304,7 @@ RLS = register(
             Param("p_cap", "1", q=0, default=100.0, lo=1.0, hi=1e6, doc="windup guard"),
             *SHARED_PARAMS,
         ),
-        modes=("F32",),
+        modes=("F32", "FIXED"),
         paper="002-stlqf-hil-mega2560",
     )
 )
