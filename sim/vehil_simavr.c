@@ -58,6 +58,9 @@
 #include <time.h>
 #include <unistd.h>
 
+#include <gelf.h>
+#include <libelf.h>
+
 #include <sim_avr.h>
 #include <sim_elf.h>
 #include <sim_gdb.h>
@@ -916,6 +919,65 @@ static void check_elf_file(const char *path)
 	}
 }
 
+/* The flash image as the chip gets it: every loadable segment at its load
+ * address.  simavr 1.6 builds flash from the sections named .text and .data,
+ * one after the other; vehil's linker script loads .data between the start-up
+ * code and the rest (so QEMU 7.2 can read it below 64 KB), which that misses.
+ * Returns 0, or -1 with a message. */
+static int load_flash_segments(const char *path, elf_firmware_t *fw)
+{
+	int fd = open(path, O_RDONLY | O_CLOEXEC);
+	if (fd < 0 || elf_version(EV_CURRENT) == EV_NONE) {
+		diag("cannot load firmware '%s': %s", path, fd < 0 ? strerror(errno) : "libelf");
+		return -1;
+	}
+	Elf *elf = elf_begin(fd, ELF_C_READ, NULL);
+	size_t n = 0;
+	int rc = -1;
+	if (!elf || elf_getphdrnum(elf, &n) != 0) {
+		diag("cannot load firmware '%s': no program headers: %s", path, elf_errmsg(-1));
+		goto out;
+	}
+	uint32_t end = 0;
+	GElf_Phdr ph;
+	for (size_t i = 0; i < n; i++)	/* flash is 0 .. 0x7fffff in avr-ld's address space */
+		if (gelf_getphdr(elf, (int)i, &ph) && ph.p_type == PT_LOAD && ph.p_filesz
+				&& ph.p_paddr < 0x800000 && ph.p_paddr + ph.p_filesz > end)
+			end = (uint32_t)(ph.p_paddr + ph.p_filesz);
+	if (end <= fw->flashbase) {
+		diag("cannot load firmware '%s': no code (.text) in the ELF", path);
+		goto out;
+	}
+	uint8_t *flash = malloc(end - fw->flashbase);
+	if (!flash) {
+		diag("cannot load firmware '%s': out of memory", path);
+		goto out;
+	}
+	memset(flash, 0xff, end - fw->flashbase);	/* erased flash */
+	for (size_t i = 0; i < n; i++) {
+		if (!gelf_getphdr(elf, (int)i, &ph) || ph.p_type != PT_LOAD || !ph.p_filesz
+				|| ph.p_paddr >= 0x800000)
+			continue;
+		if (ph.p_paddr < fw->flashbase || pread(fd, flash + (ph.p_paddr - fw->flashbase),
+				ph.p_filesz, (off_t)ph.p_offset) != (ssize_t)ph.p_filesz) {
+			diag("cannot load firmware '%s': segment %zu at 0x%05lx unreadable", path, i,
+				(unsigned long)ph.p_paddr);
+			free(flash);
+			goto out;
+		}
+	}
+	free(fw->flash);
+	fw->flash = flash;
+	fw->flashsize = end - fw->flashbase;
+	fw->datasize = 0;	/* simavr's end of code is then the end of the image */
+	rc = 0;
+out:
+	if (elf)
+		elf_end(elf);
+	close(fd);
+	return rc;
+}
+
 static avr_io_t *find_io(avr_t *avr, const char *kind, char name)
 {
 	for (avr_io_t *io = avr->io_port; io; io = io->next) {
@@ -1246,10 +1308,8 @@ int main(int argc, char **argv)
 			diag("cannot load firmware '%s': simavr could not read the ELF", opt.elf);
 			return EXIT_SETUP;
 		}
-		if (fw.flashsize == 0) {
-			diag("cannot load firmware '%s': no code (.text) in the ELF", opt.elf);
+		if (load_flash_segments(opt.elf, &fw) != 0)
 			return EXIT_SETUP;
-		}
 		if (fw.mmcu[0] && strcmp(fw.mmcu, opt.mcu) != 0)
 			diag("warning: '%s' says it is for %s, simulating %s", opt.elf, fw.mmcu, opt.mcu);
 	}
@@ -1357,7 +1417,7 @@ int main(int argc, char **argv)
 	const avr_cycle_count_t limit = opt.cycles_limit ? opt.cycles_limit : UINT64_MAX;
 	avr_cycle_count_t next_check = avr->cycle + period < limit ? avr->cycle + period : limit;
 	int rt_rebase = 0;
-	/* avr->codeend: end of .text as loaded from the ELF */
+	/* avr->codeend: end of the flash image as loaded from the ELF */
 	const avr_flashaddr_t code_end = avr->codeend ? avr->codeend : avr->flashend + 1;
 	if (opt.log_level >= LOG_TRACE)
 		diag("code ends at 0x%05x, flash ends at 0x%05x", (unsigned)code_end, (unsigned)avr->flashend);

@@ -112,6 +112,8 @@ def test_ctrl_c_stops_a_run_cleanly_and_keeps_what_was_recorded(tmp_path, built)
         ("s1-dlc80-ekf", "simavr-ev", 0.3),  # seed 001's filters: not in the default image
         ("s1-dlc80-ekf3", "simavr-ev", 0.3),
         ("s5-dlc100-low-mu-ukf", "simavr-ev", 0.3),
+        ("s2-sine80-ekf", "qemu-ev", 0.3),
+        ("s6-sine100-low-mu-ukf", "qemu-ev", 1.0),
     ],
 )
 def test_estimators_on_the_chip_match_their_references(run_scenario, name, board, duration) -> None:  # noqa: ANN001, E501

@@ -2,8 +2,7 @@
  * its state to the union and its descriptor to the table.
  * VEHIL_EV_FILTERS adds seed 001's EKF, UKF and reduced EKF: the native build and the
  * AVR env `offline-ev` have them; the default AVR image leaves them out, as none keeps
- * a 10 ms step and they push its initialised data past 64 KB of flash, where QEMU 7.2
- * cannot read it (README, "What runs on the board"). */
+ * a 10 ms step (README, "What runs on the board"). */
 #include <stddef.h>
 
 #include "estimators/acc_kf.h"

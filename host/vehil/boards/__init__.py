@@ -1,6 +1,6 @@
 """Boards: where the firmware runs, each reached through a pyserial URL.
 
-`open_board(spec)` takes "simavr", "simavr-bootloader", "qemu", "native", or anything pyserial can
+`open_board(spec)` takes a name in VIRTUAL_BOARDS, or anything pyserial can
 open (a device such as /dev/ttyACM0, or a URL such as socket://host:port), and
 returns a context manager that starts the board, waits for its ready frame,
 yields a Link with the board's INFO read, and stops the board on the way out,
@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from vehil.boards.base import Board
 from vehil.boards.native import NativeBoard
-from vehil.boards.qemu import QemuBoard
+from vehil.boards.qemu import QemuBoard, QemuEvBoard
 from vehil.boards.serialport import SerialBoard
 from vehil.boards.simavr import (
     SimavrBoard,
@@ -26,6 +26,7 @@ VIRTUAL_BOARDS: dict[str, type[Board]] = {
     "simavr-bootloader": SimavrBootloaderBoard,
     "simavr-ev": SimavrEvBoard,
     "qemu": QemuBoard,
+    "qemu-ev": QemuEvBoard,
     "native": NativeBoard,
 }
 DEFAULT_BOARD = "simavr"

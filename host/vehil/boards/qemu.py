@@ -12,7 +12,7 @@ import serial
 from vehil.boards.base import Board
 from vehil.boards.process import BoardProcess
 from vehil.errors import BoardStartError, BuildMissing
-from vehil.paths import FIRMWARE_ELF
+from vehil.paths import FIRMWARE_ELF, FIRMWARE_EV_ELF
 
 
 def _free_port() -> int:
@@ -89,3 +89,12 @@ class QemuBoard(Board):
         if self.process is not None:
             self.process.stop()
             self.process = None
+
+
+class QemuEvBoard(QemuBoard):
+    """QEMU running the image with seed 001's filters (env offline-ev)."""
+
+    name = "qemu-ev"
+
+    def __init__(self, *, elf: Path = FIRMWARE_EV_ELF, **options: object):
+        super().__init__(elf=elf, **options)  # type: ignore[arg-type]

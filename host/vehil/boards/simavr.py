@@ -81,7 +81,7 @@ class SimavrRealtimeBoard(SimavrBoard):
 
 class SimavrEvBoard(SimavrBoard):
     """simavr running the image with seed 001's filters (env offline-ev), which the
-    default image leaves out: too slow for a 10 ms step and over 64 KB of flash."""
+    default image leaves out: none keeps a 10 ms step."""
 
     name = "simavr-ev"
 

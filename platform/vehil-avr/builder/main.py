@@ -1,6 +1,9 @@
 """SCons build for the offline env: the same sources and flags as atmelavr, Debian's avr-gcc."""
 
+from pathlib import Path
+
 from SCons.Script import Builder, Default, DefaultEnvironment
+from vehil.build.ldscript import CODE_SECTION, write_script
 
 env = DefaultEnvironment()
 mcu = env.BoardConfig().get("build.mcu")
@@ -19,12 +22,13 @@ env.Replace(
     PROGSUFFIX=".elf",
     # Flash is code plus initialised data; RAM is everything the linker places in SRAM.
     SIZECHECKCMD="$SIZETOOL -A -d $SOURCES",
-    SIZEPROGREGEXP=r"^(?:\.text|\.data|\.bootloader)\s+(\d+).*",
+    SIZEPROGREGEXP=r"^(?:\.text|\%s|\.data|\.bootloader)\s+(\d+).*" % CODE_SECTION,
     SIZEDATAREGEXP=r"^(?:\.data|\.bss|\.noinit)\s+(\d+).*",
 )
 env.Append(
     CCFLAGS=["-mmcu=" + mcu],
-    LINKFLAGS=["-mmcu=" + mcu],
+    # .data loaded below 64 KB of flash, where QEMU 7.2 can read it (vehil/build/ldscript.py)
+    LINKFLAGS=["-mmcu=" + mcu, "-T", str(write_script(Path(env.subst("$BUILD_DIR")), mcu))],
     CPPDEFINES=[("F_CPU", f_cpu)],
     BUILDERS={
         "ElfToHex": Builder(
