@@ -1,8 +1,10 @@
 """SCons build for the offline env: the same sources and flags as atmelavr, Debian's avr-gcc."""
 
+import re
 from pathlib import Path
 
 from SCons.Script import Builder, Default, DefaultEnvironment
+
 from vehil.build.ldscript import CODE_SECTION, write_script
 
 env = DefaultEnvironment()
@@ -22,7 +24,7 @@ env.Replace(
     PROGSUFFIX=".elf",
     # Flash is code plus initialised data; RAM is everything the linker places in SRAM.
     SIZECHECKCMD="$SIZETOOL -A -d $SOURCES",
-    SIZEPROGREGEXP=r"^(?:\.text|\%s|\.data|\.bootloader)\s+(\d+).*" % CODE_SECTION,
+    SIZEPROGREGEXP=rf"^(?:\.text|{re.escape(CODE_SECTION)}|\.data|\.bootloader)\s+(\d+).*",
     SIZEDATAREGEXP=r"^(?:\.data|\.bss|\.noinit)\s+(\d+).*",
 )
 env.Append(
