@@ -295,11 +295,11 @@ class Upf:
         Y = ev.h(pred[:, self.h_args], u, self.mu)[:, self.h_of] + chi_v
         y_pred = ut_mean(Y, self.wm)
         dx, dy = pred - x_pred[:, None], Y - y_pred[:, None]
-        wdx = self.wc[None, :, None] * dx
-        P_pred = np.einsum("nji,njk->nik", wdx, dx)
+        wdx = np.swapaxes(self.wc[None, :, None] * dx, 1, 2)
+        P_pred = wdx @ dx
         # 3) Measurement update (52)-(56).
-        Pxy = np.einsum("nji,njk->nik", wdx, dy)
-        Pyy = np.einsum("nji,njk->nik", self.wc[None, :, None] * dy, dy)
+        Pxy = wdx @ dy
+        Pyy = np.swapaxes(self.wc[None, :, None] * dy, 1, 2) @ dy
         K = np.linalg.solve(Pyy, np.swapaxes(Pxy, 1, 2)).swapaxes(1, 2)
         x_upd = x_pred + np.einsum("nij,nj->ni", K, u.y - y_pred)
         P_upd = P_pred - K @ Pyy @ np.swapaxes(K, 1, 2)
