@@ -31,6 +31,7 @@ class Series:
     late: np.ndarray
     tolerances: dict[str, Tolerance] = field(default_factory=dict)
     native: np.ndarray | None = None
+    stack_bytes: int | None = None  # the board's stack high-water since boot, if it says
 
 
 def _err_stats(err: np.ndarray) -> dict[str, Any]:
@@ -92,6 +93,7 @@ def evaluate(s: Series) -> dict[str, Any]:
             "max": float(s.rtt_s.max() * 1e3) if n else None,
         },
         "late": int(s.late.sum()),
+        "stack_bytes": s.stack_bytes,
         "status": flags,
         "pass": bool(all_pass and n > 0),
     }
@@ -144,6 +146,7 @@ def series_from_recording(rec: Any) -> Series:
         rtt_s=d["rtt_s"],
         late=d["late"].astype(bool),
         tolerances=tolerances,
+        stack_bytes=(rec.end or {}).get("stack_bytes"),
     )
 
 
@@ -165,4 +168,5 @@ def series_from_run(run: Any) -> Series:
         late=run.late,
         tolerances=dict(p.scenario.tolerances),
         native=run.native_out,
+        stack_bytes=run.stack_bytes,
     )

@@ -57,10 +57,15 @@ def summary_table(figures: dict[str, Any], title: str) -> Table:
     flags = ", ".join(f"{k} x{v}" for k, v in figures["status"].items() if v) or "none"
     t.caption = (
         f"{figures['samples']:,} samples; cycles/step min {_g(c['min'])} median {_g(c['median'])} "
-        f"max {_g(c['max'])}; round trip p50 {_g(r['p50'])} ms p99 {_g(r['p99'])} ms; "
-        f"late {figures['late']}; status flags: {flags}"
+        f"max {_g(c['max'])}{_stack(figures)}; round trip p50 {_g(r['p50'])} ms "
+        f"p99 {_g(r['p99'])} ms; late {figures['late']}; status flags: {flags}"
     )
     return t
+
+
+def _stack(figures: dict[str, Any]) -> str:
+    b = figures.get("stack_bytes")
+    return "" if b is None else f"; stack high-water {b:,} B since boot"
 
 
 def _row_cells(o: dict[str, Any]) -> list[str]:
@@ -154,8 +159,8 @@ def write(s: Series, figures: dict[str, Any], context: dict[str, Any], out: Path
     c, r = figures["cycles"], figures["rtt_ms"]
     lines += [
         "",
-        f"Cycles per step: min {_g(c['min'])}, median {_g(c['median'])}, max {_g(c['max'])}. "
-        f"Round trip: p50 {_g(r['p50'])} ms, p99 {_g(r['p99'])} ms. "
+        f"Cycles per step: min {_g(c['min'])}, median {_g(c['median'])}, max {_g(c['max'])}"
+        f"{_stack(figures)}. Round trip: p50 {_g(r['p50'])} ms, p99 {_g(r['p99'])} ms. "
         f"Late samples: {figures['late']}.",
         "",
         f"Overall: **{'PASS' if figures['pass'] else 'FAIL'}**",

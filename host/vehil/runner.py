@@ -69,6 +69,7 @@ class Run:
     recording: Path | None = None
     native_out: np.ndarray | None = None  # FIXED with bit_exact: the native build's outputs
     resumes: list[Resume] = field(default_factory=list)  # board resets survived
+    stack_bytes: int | None = None  # the board's stack high-water since boot, after the run
 
     @property
     def done(self) -> int:
@@ -384,6 +385,7 @@ def run(
     rtt: list[float] = []
     late: list[bool] = []
     resumes: list[Resume] = []
+    stack_bytes: int | None = None
     ended, error = "completed", None
     recorder: record.Recorder | None = None
     info: dict[str, Any] = {}
@@ -439,6 +441,9 @@ def run(
                     on_sample=on_sample,
                     resumes=resumes,
                 )
+            stats = link.stats()
+            if stats["stack_size"]:
+                stack_bytes = stats["stack_size"] - stats["stack_unused"]
     except KeyboardInterrupt:
         ended, error = "interrupted", f"stopped by Ctrl-C after {len(outs)} samples"
     except VehilError as exc:
@@ -452,6 +457,7 @@ def run(
                     "error": error,
                     "wall_s": wall,
                     "resumes": [dataclasses.asdict(r) for r in resumes],
+                    "stack_bytes": stack_bytes,
                 }
             )
     prepared = source.prepared()
@@ -471,4 +477,5 @@ def run(
         recording=recorder.path if recorder else None,
         native_out=native,
         resumes=resumes,
+        stack_bytes=stack_bytes,
     )
