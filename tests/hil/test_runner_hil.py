@@ -112,7 +112,9 @@ def test_ctrl_c_stops_a_run_cleanly_and_keeps_what_was_recorded(tmp_path, built)
         ("s5-iso-active-eso", "simavr", 5.0),  # closed loop: the board's force drives the car
         ("s5-iso-active-eso-fixed", "qemu", 1.0),
         ("s6-iso-active-kfui", "simavr", 3.0),
-        ("s1-dlc80-ekf", "simavr-ev", 0.3),  # seed 001's filters: not in the default image
+        ("s1-dlc80-ekf3-linear", "simavr", 3.0),  # seed 001's variant that keeps 10 ms
+        ("s1-dlc80-ekf3-linear", "qemu", 1.0),
+        ("s1-dlc80-ekf", "simavr-ev", 0.3),  # seed 001's 7-state filters: not in the default image
         ("s1-dlc80-ekf3", "simavr-ev", 0.3),
         ("s5-dlc100-low-mu-ukf", "simavr-ev", 0.3),
         ("s2-sine80-ekf", "qemu-ev", 0.3),

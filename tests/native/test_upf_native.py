@@ -12,6 +12,7 @@ from vehil.estimators import upf
     [
         ("s1-dlc80-ekf", 20.0),
         ("s1-dlc80-ekf3", 20.0),
+        ("s1-dlc80-ekf3-linear", 20.0),
         ("s1-dlc80-ukf", 20.0),
         ("s2-sine80-ekf", 10.0),
         ("s3-tcs-low-mu-ekf", 20.0),

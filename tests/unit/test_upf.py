@@ -78,6 +78,29 @@ def test_the_jacobians_match_finite_differences(lane_change) -> None:  # noqa: A
         np.testing.assert_allclose(H[:, j], fd_h, rtol=0.02, atol=1e-3)
 
 
+def test_linear_tires_are_the_mf_slope_at_zero_slip_and_their_slopes_are_exact(lane_change) -> None:  # noqa: ANN001, E501
+    z, _ = lane_change
+    pre = ev.Preprocess(0.01)
+    for k in range(600):
+        u = pre(z[k])
+    x = np.array([22.0, 0.3, 0.15])
+    mf, lin = ev.wheels(x, u, 0.85), ev.wheels(x, u, 0.85, linear=True)
+    np.testing.assert_allclose(lin.fy_qs / lin.alpha, ev.BY * ev.CY * 0.85 * u.fz)
+    # The MF saturates below its slope at zero; at a small slip the two agree.
+    assert np.all(np.abs(lin.fy_qs) >= np.abs(mf.fy_qs))
+    small = ev.wheels(np.array([22.0, 0.0, 0.0]), u, 0.85, linear=True)
+    small_mf = ev.wheels(np.array([22.0, 0.0, 0.0]), u, 0.85)
+    assert np.max(np.abs(small.alpha)) < 0.01
+    np.testing.assert_allclose(small.fy_qs, small_mf.fy_qs, rtol=0.05, atol=5.0)
+    s = ev.slopes(x, u, 0.85, lin, linear=True)
+    for j in range(3):
+        dx = np.zeros(3)
+        dx[j] = 1e-6 * max(1.0, abs(x[j]))
+        up, down = (ev.wheels(x + sgn * dx, u, 0.85, linear=True) for sgn in (1, -1))
+        np.testing.assert_allclose(s.dalpha[:, j], (up.alpha - down.alpha) / (2 * dx[j]), rtol=1e-6)
+    np.testing.assert_array_equal(s.dk, 0.0)
+
+
 def _inputs(ax: float = 0.0, ay: float = 0.0, gz: float = 0.0, delta: float = 0.0) -> ev.Inputs:
     return ev.Inputs(delta, np.zeros(4), ev.loads(ax, ay), np.array([ax, ay, gz, 0, 0, 0, 0.0]))
 

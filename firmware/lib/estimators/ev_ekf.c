@@ -31,8 +31,8 @@ static void predict(ev_ekf_state_t *s)
     const float *p = s->model.p;
     ev_wheels_t w;
     ev_slopes_t d;
-    ev_wheels(s->x, &s->u_prev, s->model.mu, &w);
-    ev_slopes(&s->u_prev, s->model.mu, &w, &d);
+    ev_wheels(s->x, &s->u_prev, &s->model, &w);
+    ev_slopes(&s->u_prev, &s->model, &w, &d);
     ev_jacobians(&s->model, s->x, &s->u_prev, &w, &d, s->F, NULL);
     ev_step(&s->model, s->x, &s->u_prev, &w);
     mat_mul_f32(s->F, s->P, EV_NX, EV_NX, EV_NX, s->tmp);
@@ -49,8 +49,8 @@ static void update(ev_ekf_state_t *s, const ev_inputs_t *u)
     float *H = s->F;
     ev_wheels_t w;
     ev_slopes_t d;
-    ev_wheels(s->x, u, s->model.mu, &w);
-    ev_slopes(u, s->model.mu, &w, &d);
+    ev_wheels(s->x, u, &s->model, &w);
+    ev_slopes(u, &s->model, &w, &d);
     ev_noise(&s->model, u, &w, r);
     ev_jacobians(&s->model, s->x, u, &w, &d, NULL, H);
     ev_h(s->x, s->x + 3, u, &w, e);

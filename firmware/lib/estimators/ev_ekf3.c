@@ -13,13 +13,16 @@ static void ev_ekf3_reset(void *state)
     s->started = 0;
 }
 
+static const param_range_t own_ranges[] = {{0.0f, 1.0f, 16}}; /* tires: 0 MF, 1 linear */
+
 static uint8_t ev_ekf3_configure(void *state, uint8_t mode, const uint8_t *params)
 {
     ev_ekf3_state_t *s = state;
-    uint8_t bad = ev_model_configure(&s->model, mode, params, NULL, 0);
+    uint8_t bad = ev_model_configure(&s->model, mode, params, own_ranges, 1);
     if (bad != 0u) {
         return bad;
     }
+    s->model.linear = param_value(params, EV_N_PARAMS, mode, own_ranges[0].q) >= 0.5f;
     ev_ekf3_reset(s);
     return 0;
 }
@@ -102,8 +105,8 @@ static void update(ev_ekf3_state_t *s, const ev_inputs_t *u)
     float r[EV_NY], e[EV_NY], H[EV_NY * 3u], dx[3];
     const ev_slopes_t *d = &s->d;
     ev_wheels_t w;
-    ev_wheels(s->x, u, s->model.mu, &w);
-    ev_slopes(u, s->model.mu, &w, &s->d);
+    ev_wheels(s->x, u, &s->model, &w);
+    ev_slopes(u, &s->model, &w, &s->d);
     ev_noise(&s->model, u, &w, r);
     ev_force_slopes3(u, d, s->J);
     ev_h3(s->x, u, &w, d, s->J, H);
@@ -145,7 +148,7 @@ const estimator_t ev_ekf3_estimator = {
     .modes = 1u << MODE_F32,
     .n_inputs = EV_N_INPUTS,
     .n_outputs = EV_N_OUTPUTS,
-    .n_params = EV_N_PARAMS,
+    .n_params = EV_N_PARAMS + 1u, /* and tires */
     .configure = ev_ekf3_configure,
     .reset = ev_ekf3_reset,
     .step = ev_ekf3_step,

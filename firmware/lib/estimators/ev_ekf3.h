@@ -4,7 +4,8 @@
  * at steady state). One tire evaluation per step, at the predicted state: the next
  * prediction reuses its slopes and its forces carried to the corrected state to first
  * order (the forces out too). Same inputs and outputs as ev_ekf, and its parameters but the
- * force states' (p0_f, q_f). Host: estimators/upf.py (Ekf3). */
+ * force states' (p0_f, q_f), then `tires`: 1 takes the tires' linear range (ev_wheels),
+ * which with a fixed R keeps a 10 ms step. Host: estimators/upf.py (Ekf3). */
 #ifndef VEHIL_ESTIMATORS_EV_EKF3_H
 #define VEHIL_ESTIMATORS_EV_EKF3_H
 

@@ -62,6 +62,7 @@ uint8_t ev_model_configure(ev_model_t *m, uint8_t mode, const uint8_t *params,
     m->T = p[EV_P_T];
     m->inv_T = 1.0f / m->T;
     m->mu = p[EV_P_MU];
+    m->linear = 0;
     const float fixed[4] = {p[EV_P_RAX], p[EV_P_RAY], p[EV_P_RGZ], p[EV_P_RW]};
     const float c[4] = {p[EV_P_CAX] / 3.0f, p[EV_P_CAY] / 2.0f, p[EV_P_CGZ] / 2.0f,
                         p[EV_P_CW] / 3.0f};
@@ -142,8 +143,9 @@ static float roll_tanh(float vx)
     return vx > 5.0f ? 1.0f : (vx < -5.0f ? -1.0f : tanhf(vx / 0.5f));
 }
 
-void ev_wheels(const float *x, const ev_inputs_t *u, float mu, ev_wheels_t *w)
+void ev_wheels(const float *x, const ev_inputs_t *u, const ev_model_t *m, ev_wheels_t *w)
 {
+    float mu = m->mu;
     for (uint8_t i = 0; i < 4u; i++) {
         float vX = x[0] - byw[i] * x[2], vY = x[1] + lx[i] * x[2];
         float vix = vX, viy = vY;
@@ -152,14 +154,25 @@ void ev_wheels(const float *x, const ev_inputs_t *u, float mu, ev_wheels_t *w)
             viy = -u->sd * vX + u->cd * vY;
         }
         float den = fmaxf_(fabsf(vix), 0.5f), zz = viy / den;
-        float alpha = -atanf(zz);
-        float dmax = mu * u->fz[i], ba = BY * alpha;
-        /* (27)-(28): κ̂ = F_x / (G_xα B_x C_x D_x), G_xα = 1/√(1+(B_xα α)²) */
-        float kappa = u->fx[i] * sqrtf(1.0f + ba * ba) / (BX * CX * fmaxf_(dmax, 1.0f));
-        float ty = CY * atanf(ba), sty = sinf(ty), bk = BYK * kappa;
-        float g_yk = 1.0f / sqrtf(1.0f + bk * bk);
-        /* (15), (17), (19) with E_y = 0 and S_H = 0 */
-        w->fy_qs[i] = dmax * sty * g_yk;
+        float dmax = mu * u->fz[i];
+        float alpha, kappa, ba, ty = 0.0f, sty = 0.0f, g_yk = 1.0f;
+        if (m->linear) {
+            alpha = -zz;
+            ba = BY * alpha;
+            kappa = u->fx[i] / (BX * CX * fmaxf_(dmax, 1.0f));
+            w->fy_qs[i] = dmax * CY * ba;
+        } else {
+            alpha = -atanf(zz);
+            ba = BY * alpha;
+            /* (27)-(28): κ̂ = F_x / (G_xα B_x C_x D_x), G_xα = 1/√(1+(B_xα α)²) */
+            kappa = u->fx[i] * sqrtf(1.0f + ba * ba) / (BX * CX * fmaxf_(dmax, 1.0f));
+            ty = CY * atanf(ba);
+            sty = sinf(ty);
+            float bk = BYK * kappa;
+            g_yk = 1.0f / sqrtf(1.0f + bk * bk);
+            /* (15), (17), (19) with E_y = 0 and S_H = 0 */
+            w->fy_qs[i] = dmax * sty * g_yk;
+        }
         w->vix[i] = vix;
         w->alpha[i] = alpha;
         w->kappa[i] = kappa;
@@ -172,18 +185,25 @@ void ev_wheels(const float *x, const ev_inputs_t *u, float mu, ev_wheels_t *w)
     }
 }
 
-void ev_slopes(const ev_inputs_t *u, float mu, const ev_wheels_t *w, ev_slopes_t *d)
+void ev_slopes(const ev_inputs_t *u, const ev_model_t *m, const ev_wheels_t *w, ev_slopes_t *d)
 {
+    float mu = m->mu;
     for (uint8_t i = 0; i < 4u; i++) {
         const float *L = u->L[i], *dviy = u->dviy[i];
         /* α = -atan(v_iy / max(|v_ix|, 0.5)) */
         float vix = w->vix[i], avix = fabsf(vix);
         float sgn = vix > 0.0f ? 1.0f : (vix < 0.0f ? -1.0f : 0.0f);
         float zz = w->zz[i];
-        float g = 1.0f / (w->den[i] * (1.0f + zz * zz));
+        /* linear tires: α = -zz, so no 1 / (1 + zz²) */
+        float g = 1.0f / (m->linear ? w->den[i] : w->den[i] * (1.0f + zz * zz));
         for (uint8_t j = 0; j < 3u; j++) {
             float dden = avix > 0.5f ? sgn * L[j] : 0.0f;
             d->dalpha[i][j] = -(dviy[j] - zz * dden) * g;
+        }
+        if (m->linear) { /* κ̂ does not depend on α, F_y = B_y C_y μF_z α */
+            d->dk[i] = 0.0f;
+            d->dqs[i] = mu * u->fz[i] * (BY * CY);
+            continue;
         }
         /* κ̂ = F_x / (G_xα(α) k): dκ̂/dα = -κ̂ G_xα' / G_xα = κ̂ B_xα² α / (1 + (B_xα α)²) */
         float k = w->kappa[i], ba = w->ba[i], bk = BYK * k;

@@ -51,6 +51,7 @@ typedef struct {
     float r_scale[4], r_lo[4], r_hi[4];
     float w_prev[4], w_dot[4];
     uint8_t have_w, adaptive;
+    uint8_t linear; /* linear tires (ev_ekf3's `tires` = 1), see ev_wheels */
 } ev_model_t;
 
 /* Per-wheel terms at one state; every model function below takes them, so a filter
@@ -77,8 +78,10 @@ void ev_model_reset(ev_model_t *m);
  * STATUS_NOT_FINITE and nothing changed if one is not finite. */
 uint8_t ev_model_inputs(ev_model_t *m, const uint8_t *in, ev_inputs_t *u);
 
-void ev_wheels(const float *x, const ev_inputs_t *u, float mu, ev_wheels_t *w);
-void ev_slopes(const ev_inputs_t *u, float mu, const ev_wheels_t *w, ev_slopes_t *d);
+/* With m->linear, the tires' linear range: α = -v_iy / max(|v_ix|, 0.5), F_y = B_y C_y μF_z α
+ * and κ̂ = F_x / (B_x C_x μF_z), no combined-slip weights: no atan, sin or square root. */
+void ev_wheels(const float *x, const ev_inputs_t *u, const ev_model_t *m, ev_wheels_t *w);
+void ev_slopes(const ev_inputs_t *u, const ev_model_t *m, const ev_wheels_t *w, ev_slopes_t *d);
 /* v̇_x, v̇_y, γ̇ (eqs. 1-7) with the tire-frame lateral forces fy: the 7-state model's
  * F̃_iy (x + 3) or the 3-state model's quasi-static ones (w->fy_qs). */
 void ev_body_rates(const float *x, const float *fy, const ev_inputs_t *u, float *rates);

@@ -90,7 +90,7 @@ static uint8_t predict(ev_ukf_state_t *s)
     }
     for (uint8_t j = 0; j < EV_UKF_NS; j++) {
         ev_wheels_t w;
-        ev_wheels(s->chi[j], &s->u_prev, s->model.mu, &w);
+        ev_wheels(s->chi[j], &s->u_prev, &s->model, &w);
         ev_step(&s->model, s->chi[j], &s->u_prev, &w);
     }
     mean(s, (const float (*)[EV_NX])s->chi, s->x);
@@ -107,13 +107,13 @@ static uint8_t update(ev_ukf_state_t *s, const ev_inputs_t *u)
 {
     float r[EV_NY], y[EV_NY];
     ev_wheels_t w;
-    ev_wheels(s->x, u, s->model.mu, &w);
+    ev_wheels(s->x, u, &s->model, &w);
     ev_noise(&s->model, u, &w, r);
     if (!sigma_points(s)) {
         return STATUS_SINGULAR;
     }
     for (uint8_t j = 0; j < EV_UKF_NS; j++) {
-        ev_wheels(s->chi[j], u, s->model.mu, &w);
+        ev_wheels(s->chi[j], u, &s->model, &w);
         ev_h(s->chi[j], s->chi[j] + 3, u, &w, s->Y[j]);
     }
     mean(s, (const float (*)[EV_NX])s->Y, y);

@@ -1,8 +1,9 @@
 /* The estimators built into this image. Adding one: include its header, add
  * its state to the union and its descriptor to the table.
- * VEHIL_EV_FILTERS adds seed 001's EKF, UKF and reduced EKF: the native build and the
- * AVR env `offline-ev` have them; the default AVR image leaves them out, as none keeps
- * a 10 ms step (README, "What runs on the board"). */
+ * VEHIL_EV_FILTERS adds seed 001's 7-state EKF and UKF: the native build and the AVR
+ * env `offline-ev` have them; the default AVR image leaves them out, as neither keeps
+ * a 10 ms step (README, "What runs on the board"). Its reduced EKF does, with linear
+ * tires and a fixed R. */
 #include <stddef.h>
 
 #include "estimators/acc_kf.h"
@@ -10,9 +11,9 @@
 #include "estimators/estimator.h"
 #ifdef VEHIL_EV_FILTERS
 #include "estimators/ev_ekf.h"
-#include "estimators/ev_ekf3.h"
 #include "estimators/ev_ukf.h"
 #endif
+#include "estimators/ev_ekf3.h"
 #include "estimators/kfui.h"
 #include "estimators/manf.h"
 #include "estimators/passthrough.h"
@@ -29,10 +30,10 @@ static union {
     kfui_state_t kfui;
     stlqf_state_t stlqf;
     rls_state_t rls;
+    ev_ekf3_state_t ev_ekf3;
 #ifdef VEHIL_EV_FILTERS
     ev_ekf_state_t ev_ekf;
     ev_ukf_state_t ev_ukf;
-    ev_ekf3_state_t ev_ekf3;
 #endif
 } state;
 
@@ -45,10 +46,10 @@ static const estimator_t *const registry[] = {
     &kfui_estimator,
     &stlqf_estimator,
     &rls_estimator,
+    &ev_ekf3_estimator,
 #ifdef VEHIL_EV_FILTERS
     &ev_ekf_estimator,
     &ev_ukf_estimator,
-    &ev_ekf3_estimator,
 #endif
 };
 

@@ -184,15 +184,22 @@ class Wheels:
     kappa: np.ndarray  # κ̂ (28)
 
 
-def wheels(x: np.ndarray, u: Inputs, mu: float) -> Wheels:
+def wheels(x: np.ndarray, u: Inputs, mu: float, linear: bool = False) -> Wheels:
+    """With `linear`, the tires' linear range: α = -v_iy / max(|v_ix|, 0.5),
+    F_y = B_y C_y μF_z α and κ̂ = F_x / (B_x C_x μF_z), no combined-slip weights."""
     vx, vy, r = x[..., 0:1], x[..., 1:2], x[..., 2:3]
     d = u.delta * STEERED
     cd, sd = np.cos(d), np.sin(d)
     vX, vY = vx - BYW * r, vy + LX * r  # (8)-(9) in x_R y_R
     vix = cd * vX + sd * vY  # (11)-(12)
     viy = -sd * vX + cd * vY
-    alpha = -np.arctan(viy / np.maximum(np.abs(vix), 0.5))
+    zz = viy / np.maximum(np.abs(vix), 0.5)
     dmax = mu * u.fz
+    if linear:
+        alpha = -zz
+        kappa = u.fx / (BX * CX * np.maximum(dmax, 1.0))
+        return Wheels(vix, alpha, BY * CY * dmax * alpha, kappa)
+    alpha = -np.arctan(zz)
     kappa = u.fx / (weight(alpha, BXA, CXA) * BX * CX * np.maximum(dmax, 1.0))  # (27)-(28)
     fy_qs = weight(kappa, BYK, CYK) * mf(alpha, BY, CY, EY, dmax)
     return Wheels(vix, alpha, fy_qs, kappa)
@@ -229,10 +236,12 @@ def step(x: np.ndarray, u: Inputs, mu: float, T: float) -> np.ndarray:
     return x + T * f(x, u, mu)
 
 
-def h(x: np.ndarray, u: Inputs, mu: float, quasi_static: bool = False) -> np.ndarray:
+def h(
+    x: np.ndarray, u: Inputs, mu: float, quasi_static: bool = False, linear: bool = False
+) -> np.ndarray:
     """y (30): a_x, a_y, γ, ω_i = v_ix (1 + κ̂_i) / R; with quasi_static, x is [v_x, v_y, γ]
-    and the lateral forces are G_yκ F_y0 at x."""
-    w = wheels(x, u, mu)
+    and the lateral forces are G_yκ F_y0 at x (linear tires: see `wheels`)."""
+    w = wheels(x, u, mu, linear)
     fx, fy, _ = body_forces(x, u, w.fy_qs if quasi_static else None)
     om = w.vix * (1 + w.kappa) / R_W
     return np.concatenate([np.stack([fx / M, fy / M, x[..., 2]], axis=-1), om], axis=-1)
@@ -308,9 +317,9 @@ class Slopes:
     dqs: np.ndarray
 
 
-def slopes(x: np.ndarray, u: Inputs, mu: float, w: Wheels) -> Slopes:
+def slopes(x: np.ndarray, u: Inputs, mu: float, w: Wheels, linear: bool = False) -> Slopes:
     """κ̂'s dependence on α through G_xα (28) included. E_y = 0, so
-    dF_y0/dα = D C B cos(C atan(Bα)) / (1 + (Bα)²)."""
+    dF_y0/dα = D C B cos(C atan(Bα)) / (1 + (Bα)²). Linear tires: see `wheels`."""
     vx, vy, r = x[:3]
     d = u.delta * STEERED
     cd, sd = np.cos(d), np.sin(d)
@@ -324,7 +333,10 @@ def slopes(x: np.ndarray, u: Inputs, mu: float, w: Wheels) -> Slopes:
         dviy = np.array([-sd[i], cd[i], sd[i] * BYW[i] + cd[i] * LX[i]])
         dden = sgn[i] * L if abs(w.vix[i]) > 0.5 else np.zeros(3)
         zz = viy[i] / den[i]
-        dalpha[i] = -(dviy / den[i] - viy[i] / den[i] ** 2 * dden) / (1 + zz * zz)
+        dalpha[i] = -(dviy / den[i] - viy[i] / den[i] ** 2 * dden) / (1 if linear else 1 + zz * zz)
+        if linear:
+            dqss[i] = BY * CY * mu * u.fz[i]
+            continue
         a, k = float(w.alpha[i]), float(w.kappa[i])
         ba, bxa, bk = BY * a, BXA * a, BYK * k
         # κ̂ = F_x / (G_xα(α) k): dκ̂/dα = -κ̂ G_xα' / G_xα

@@ -86,15 +86,18 @@ def _accept(filt: _Filter | Upf, z: np.ndarray) -> ev.Inputs | None:
     return filt.pre(z)
 
 
-def _noise(x: np.ndarray, u: ev.Inputs, mu: float, p: Mapping[str, float]) -> np.ndarray:
+def _noise(
+    x: np.ndarray, u: ev.Inputs, mu: float, p: Mapping[str, float], linear: bool = False
+) -> np.ndarray:
     """R at this sample: (66)-(69) from the slips at x, or the fixed R."""
-    return ev.adaptive_r(u, ev.wheels(x, u, mu).kappa, p)
+    return ev.adaptive_r(u, ev.wheels(x, u, mu, linear).kappa, p)
 
 
 class _Filter(ABC):
     """What the EKF and UKF share: the inputs, the prior, R and the outputs."""
 
     N = ev.N_X  # states
+    linear = False  # linear tires (Ekf3's `tires`)
 
     def __init__(self, p: Mapping[str, float]):
         self.p = p
@@ -118,7 +121,7 @@ class _Filter(ABC):
         return ev.outputs(self.x)
 
     def noise(self, u: ev.Inputs) -> np.ndarray:
-        R = _noise(self.x, u, self.mu, self.p)
+        R = _noise(self.x, u, self.mu, self.p, self.linear)
         self.r_history.append(R)
         return R
 
@@ -166,6 +169,7 @@ class Ekf3(_Filter):
 
     def __init__(self, p: Mapping[str, float]):
         super().__init__(p)
+        self.linear = p["tires"] >= 0.5
         self.fy = np.zeros(4)
         self.slopes: ev.Slopes | None = None
 
@@ -177,11 +181,11 @@ class Ekf3(_Filter):
 
     def update(self, u: ev.Inputs) -> None:
         R = self.noise(u)
-        w = ev.wheels(self.x, u, self.mu)
-        s = ev.slopes(self.x, u, self.mu, w)
+        w = ev.wheels(self.x, u, self.mu, self.linear)
+        s = ev.slopes(self.x, u, self.mu, w, self.linear)
         _, H = ev.jacobians3(self.x, u, self.T, s, w)
         assert H is not None
-        e = u.y - ev.h(self.x, u, self.mu, quasi_static=True)
+        e = u.y - ev.h(self.x, u, self.mu, quasi_static=True, linear=self.linear)
         x_pred = self.x
         self.x, self.P = ekf_correct(self.x, self.P, H, e, R)
         self.fy = w.fy_qs + s.dqs * (s.dalpha @ (self.x - x_pred))
@@ -359,7 +363,10 @@ EKF3 = _board_filter(
     52,
     "EKF on the 3-state EV model, quasi-static lateral forces (seed 001, board)",
     Ekf3,
-    ev.PARAMS,
+    (
+        *ev.PARAMS,
+        Param("tires", "1", default=0.0, lo=0.0, hi=1.0, doc="0 combined-slip MF, 1 linear range"),
+    ),
 )
 UKF = _board_filter(
     "ev_ukf", 51, "UKF on the 7-state EV model, fixed or adaptive R (seed 001)", Ukf, BOARD_PARAMS
