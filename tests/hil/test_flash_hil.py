@@ -49,7 +49,9 @@ def _flip_byte(src: Path, dst: Path, address: int) -> int:
     lines, base, original = [], 0, -1
     for line in src.read_text().split():
         rec = bytearray.fromhex(line[1:])
-        if rec[3] == 4:
+        if rec[3] == 2:  # extended segment address: objcopy's way past 64 KB
+            base = int.from_bytes(rec[4:6], "big") << 4
+        if rec[3] == 4:  # extended linear address
             base = int.from_bytes(rec[4:6], "big") << 16
         start = base + int.from_bytes(rec[1:3], "big")
         if rec[3] == 0 and start <= address < start + rec[0]:
