@@ -2,6 +2,7 @@
 
 #include <math.h>
 
+#include "fixmath/fixmath.h"
 #include "proto/messages.h"
 #include "proto/wire.h"
 
@@ -16,6 +17,9 @@ uint8_t longit_check(const uint8_t *params, uint8_t mode, const param_range_t *o
     if (bad == 0u) {
         bad = params_check(params + 4u * n_own, mode, longit_ranges, LONGIT_N_PARAMS);
         bad = bad ? (uint8_t)(bad + n_own) : 0u;
+    }
+    if (bad == 0u && mode == MODE_FIXED && param_q(params, n_own + LONGIT_PREFILTER_HZ) != 0) {
+        bad = (uint8_t)(1u + n_own + LONGIT_PREFILTER_HZ); /* no prefilter in fixed point */
     }
     return bad;
 }
@@ -42,6 +46,18 @@ void longit_configure(longit_t *l, const uint8_t *params, uint8_t first, uint8_t
     l->a1 = 2.0f * (k * k - 1.0f) * norm;
     l->a2 = (1.0f - 1.41421356f * k + k * k) * norm;
     longit_reset(l);
+}
+
+void longit_configure_q(longit_q_t *l, const uint8_t *params, uint8_t first)
+{
+    uint8_t st = 0; /* the ranges checked keep every operation below in range */
+    int32_t c;
+    l->eps = param_q(params, (uint8_t)(first + LONGIT_EPS));
+    fx_small_cos_sin_q30(l->eps, &c, &l->sin_eps, &st);
+    l->half_rho = param_q(params, (uint8_t)(first + LONGIT_RHO)) / 2;
+    l->g_cos = fx_div(param_q(params, (uint8_t)(first + LONGIT_G)), 24, c, 30, 26, &st);
+    l->m0 = param_q(params, (uint8_t)(first + LONGIT_M0));
+    l->cda0 = param_q(params, (uint8_t)(first + LONGIT_CDA0));
 }
 
 void longit_reset(longit_t *l) { l->started = 0; }
@@ -80,6 +96,24 @@ uint8_t longit_inputs(longit_t *l, const uint8_t *in, float *psi, float *z)
     return 0;
 }
 
+static int32_t clamp(int32_t x, int32_t bound, uint8_t *status)
+{
+    if (x > bound || x < -bound) {
+        *status |= STATUS_CLAMPED;
+        return x > 0 ? bound : -bound;
+    }
+    return x;
+}
+
+void longit_inputs_q(const longit_q_t *l, const uint8_t *in, int32_t *x, uint8_t *status)
+{
+    int32_t v = clamp(get_i32(in), LONGIT_V_MAX_Q24, status);
+    int32_t v2 = fx_mul(v, 24, v, 24, 18, status);
+    x[0] = clamp(get_i32(in + 4), LONGIT_VDOT_MAX_Q24, status);
+    x[1] = fx_mul(v2, 18, l->half_rho, 24, 18, status);
+    x[2] = clamp(get_i32(in + 8), LONGIT_Z_MAX_Q14, status);
+}
+
 void longit_initial(const longit_t *l, float *theta)
 {
     theta[0] = l->m0;
@@ -102,4 +136,22 @@ uint8_t longit_outputs(const longit_t *l, float m, float cda, float m_sin, uint8
     put_f32(out + 4, cda);
     put_f32(out + 8, (asinf(ratio) - l->eps) * 57.2957795f /* deg per rad */);
     return status;
+}
+
+void longit_outputs_q(const longit_q_t *l, int32_t m, uint8_t q_m, int32_t cda, int32_t m_sin,
+                      uint8_t q_ms, uint8_t *out, uint8_t *status)
+{
+    int32_t ratio = 0;
+    if (m > 0) {
+        ratio = fx_div(m_sin, q_ms, m, q_m, 30, status);
+    }
+    const int32_t half = (int32_t)1 << 29;
+    if (m <= 0 || ratio > half || ratio < -half) {
+        *status |= STATUS_CLAMPED;
+        ratio = ratio > half ? half : (ratio < -half ? -half : ratio);
+    }
+    int32_t grade = fx_sub(fx_asin_q30(ratio, status), l->eps, status);
+    put_i32(out, fx_rescale(m, q_m, 16, status));
+    put_i32(out + 4, cda);
+    put_i32(out + 8, fx_mul(grade, 30, 961263669 /* 180/π, Q24 */, 24, 20, status));
 }

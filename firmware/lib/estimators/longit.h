@@ -30,12 +30,31 @@ typedef struct {
     uint8_t filter, started;
 } longit_t;
 
+/* FIXED's shared constants, computed from the Q parameters with integers only (libm's
+ * last bit differs between avr-libc and the host, and FIXED must give the same bits). */
+typedef struct {
+    int32_t eps, sin_eps; /* ε, sin ε: Q30 */
+    int32_t half_rho;     /* ½ρ: Q24 */
+    int32_t g_cos;        /* g / cos ε: Q26 */
+    int32_t m0;           /* Q16 */
+    int32_t cda0;         /* Q24 */
+} longit_q_t;
+
+/* FIXED's input bounds, so every product of the fixed-point steps fits: |v| < 82 m/s
+ * (½ρv² < 2^13 in Q18), |v̇| < 16 m/s², |z| < 32 kN. */
+#define LONGIT_V_MAX_Q24 ((int32_t)82 << 24)
+#define LONGIT_VDOT_MAX_Q24 ((int32_t)16 << 24)
+#define LONGIT_Z_MAX_Q14 ((int32_t)32768 << 14)
+
 /* 0 if the estimator's own n_own parameters and then the shared ones are in range,
- * else 1 + the index of the first bad one. */
+ * else 1 + the index of the first bad one. FIXED takes no prefilter. */
 uint8_t longit_check(const uint8_t *params, uint8_t mode, const param_range_t *own, uint8_t n_own);
 
 /* Reads the shared parameters starting at index `first`, in either numeric mode. */
 void longit_configure(longit_t *l, const uint8_t *params, uint8_t first, uint8_t mode);
+
+/* The shared parameters, starting at index `first`, as FIXED's constants. */
+void longit_configure_q(longit_q_t *l, const uint8_t *params, uint8_t first);
 
 /* The prefilter back to its start (it settles on the next sample). */
 void longit_reset(longit_t *l);
@@ -44,11 +63,21 @@ void longit_reset(longit_t *l);
  * if one is not finite. */
 uint8_t longit_inputs(longit_t *l, const uint8_t *in, float *psi, float *z);
 
+/* x = [v̇ Q24, ½ρv² Q18, z Q14] from a FIXED SAMPLE (v Q24, v̇ Q24, z Q14), clamped to the bounds above
+ * (STATUS_CLAMPED into *status). */
+void longit_inputs_q(const longit_q_t *l, const uint8_t *in, int32_t *x, uint8_t *status);
+
 /* θ(0) = [m0, C_dA_f0, m0 sin ε] (a level road). */
 void longit_initial(const longit_t *l, float *theta);
 
 /* Writes m̂, Ĉ_dA_f and β̂_r = asin(θ3/θ1) - ε in degrees; returns STATUS_CLAMPED when
  * |θ3/θ1| > 1 or m̂ <= 0 (the grade is then clamped). */
 uint8_t longit_outputs(const longit_t *l, float m, float cda, float m_sin, uint8_t *out);
+
+/* FIXED's outputs: m̂ Q16, Ĉ_dA_f Q16 and β̂_r Q20 from m (Q q_m), C_dA_f (Q16) and
+ * m sin(ε + β_r) (Q q_ms); the grade is clamped to ±30° (STATUS_CLAMPED), where the
+ * asin series holds. */
+void longit_outputs_q(const longit_q_t *l, int32_t m, uint8_t q_m, int32_t cda, int32_t m_sin,
+                      uint8_t q_ms, uint8_t *out, uint8_t *status);
 
 #endif

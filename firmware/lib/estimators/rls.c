@@ -43,26 +43,13 @@ static void rls_reset(void *state)
     reset_covariance(s);
 }
 
-/* cos ε and sin ε (ε <= 0.1 rad) from their series in integers: libm's last bit differs
- * between avr-libc and the host, and FIXED must give the same bits on both. */
-static void cos_sin_q30(int32_t eps, int32_t *c, int32_t *sn, uint8_t *st)
-{
-    int32_t e2 = fx_mul(eps, QN, eps, QN, QN, st);
-    int32_t e4 = fx_mul(e2, QN, e2, QN, QN, st);
-    *c = fx_add(fx_sub((int32_t)1 << QN, e2 / 2, st), e4 / 24, st);
-    int32_t s3 = fx_sub((int32_t)1 << QN, fx_sub(e2 / 6, e4 / 120, st), st);
-    *sn = fx_mul(eps, QN, s3, QN, QN, st);
-}
-
 /* FIXED's constants from the Q parameters with integer arithmetic only (see above). */
 static void configure_q(rls_state_t *s, const uint8_t *params)
 {
     uint8_t st = 0;
-    const uint8_t sh = N_OWN; /* the shared parameters follow the own ones */
+    longit_q_t *l = &s->u.q.shared;
+    longit_configure_q(l, params, N_OWN);
     int32_t p0_m = param_q(params, P_P0_M), p_cap = param_q(params, P_CAP);
-    int32_t eps = param_q(params, sh + LONGIT_EPS), m0 = param_q(params, sh + LONGIT_M0);
-    int32_t c, sn;
-    cos_sin_q30(eps, &c, &sn, &st);
     /* P_n(0) = P(0) / scale²: 2048², 4², 1024² into Q27. */
     s->u.q.p0[0] = fx_rescale(p0_m, 22, QP, &st);
     s->u.q.p0[1] = fx_rescale(param_q(params, P_P0_CDA), 16 + 4, QP, &st);
@@ -73,13 +60,10 @@ static void configure_q(rls_state_t *s, const uint8_t *params)
     }
     s->u.q.lambda = param_q(params, P_LAMBDA);
     s->u.q.inv_lambda = fx_div((int32_t)1 << QN, QN, s->u.q.lambda, QN, QN, &st);
-    s->u.q.half_rho = param_q(params, sh + LONGIT_RHO) / 2;
-    s->u.q.g_n = fx_div(param_q(params, sh + LONGIT_G), 24 + 4, c, QN, QN, &st); /* g'/16 */
-    s->u.q.eps = eps;
     /* θ_n(0) = [m0/2048, C_dA_f0/4, m0 sin ε/1024] */
-    s->u.q.theta0[0] = fx_rescale(m0, 16, 19, &st);
-    s->u.q.theta0[1] = fx_rescale(param_q(params, sh + LONGIT_CDA0), 24, 28, &st);
-    s->u.q.theta0[2] = fx_mul(m0, 16, sn, QN, 20, &st);
+    s->u.q.theta0[0] = fx_rescale(l->m0, 16, 19, &st);
+    s->u.q.theta0[1] = fx_rescale(l->cda0, 24, 28, &st);
+    s->u.q.theta0[2] = fx_mul(l->m0, 16, l->sin_eps, QN, 20, &st);
 }
 
 static uint8_t rls_configure(void *state, uint8_t mode, const uint8_t *params)
@@ -90,9 +74,6 @@ static uint8_t rls_configure(void *state, uint8_t mode, const uint8_t *params)
         return bad;
     }
     longit_configure(&s->model, params, N_OWN, mode);
-    if (mode == MODE_FIXED && s->model.filter) {
-        return (uint8_t)(1u + N_OWN + LONGIT_PREFILTER_HZ); /* no prefilter in fixed point */
-    }
     s->mode = mode;
     s->lambda = param_value(params, P_LAMBDA, mode, ranges[P_LAMBDA].q);
     float p0_m = param_value(params, P_P0_M, mode, ranges[P_P0_M].q);
@@ -150,29 +131,16 @@ static uint8_t step_f32(rls_state_t *s, const uint8_t *in, uint8_t *out)
     return (uint8_t)(status | longit_outputs(&s->model, theta[0], theta[1], theta[2], out));
 }
 
-/* asin x for |x| <= 1/2 (|grade| < 30°) from its series to x⁹: error < 1e-5 rad there. */
-static int32_t asin_q30(int32_t x, uint8_t *status)
-{
-    static const int32_t c[] = {1073741824, 178956971, 80530637, 47934905, 32622364};
-    int32_t x2 = fx_mul(x, QN, x, QN, QN, status);
-    int32_t acc = c[4];
-    for (int8_t i = 3; i >= 0; i--) {
-        acc = fx_add(fx_mul(acc, QN, x2, QN, QN, status), c[i], status);
-    }
-    return fx_mul(acc, QN, x, QN, QN, status);
-}
-
 static uint8_t step_q(rls_state_t *s, const uint8_t *in, uint8_t *out)
 {
     int32_t *theta = s->u.q.theta, *P = s->u.q.P;
     uint8_t st = 0;
-    int32_t v = get_i32(in), v_dot = get_i32(in + 4), z = get_i32(in + 8);
-    /* The normalised regressors: the same integers read in other Q formats (v̇ Q20 as
-     * Q27 is v̇/8 in Q30, ½ρv² in Q18 is /4096, z Q12 in Q16 is /16384). */
-    int32_t v2 = fx_mul(v, 16, v, 16, 16, &st);
-    const int32_t psi[3] = {fx_rescale(v_dot, 20, 27, &st),
-                            fx_mul(v2, 16, s->u.q.half_rho, 24, 18, &st), s->u.q.g_n};
-    int32_t zn = fx_rescale(z, 12, 16, &st);
+    /* The normalised regressors: v̇ in Q27 is v̇/8 in Q30, ½ρv² in Q18 /4096, z in Q16
+     * /16384, g' in Q26 /16. */
+    int32_t x[3];
+    longit_inputs_q(&s->u.q.shared, in, x, &st);
+    const int32_t psi[3] = {fx_rescale(x[0], 24, 27, &st), x[1], s->u.q.shared.g_cos};
+    int32_t zn = fx_rescale(x[2], 14, 16, &st);
     int32_t pp[3], k[3];
     int32_t denom = fx_rescale(s->u.q.lambda, QN, QP, &st), err = zn;
     for (uint8_t i = 0; i < 3u; i++) {
@@ -206,20 +174,9 @@ static uint8_t step_q(rls_state_t *s, const uint8_t *in, uint8_t *out)
         reset_covariance(s);
         st |= STATUS_SINGULAR;
     }
-    /* Outputs: θ_n read in other Q formats is θ (m: ×2048, C_dA_f: ×4). */
-    put_i32(out, fx_rescale(theta[0], QN - 11, 16, &st));
-    put_i32(out + 4, fx_rescale(theta[1], QN - 2, 24, &st));
-    int32_t ratio = 0; /* m sin / m = θ_n2 · 1024 / (θ_n0 · 2048) */
-    if (theta[0] > 0) {
-        ratio = fx_div(theta[2], QN + 1, theta[0], QN, QN, &st);
-    }
-    const int32_t half = (int32_t)1 << (QN - 1);
-    if (theta[0] <= 0 || ratio > half || ratio < -half) {
-        st |= STATUS_CLAMPED;
-        ratio = ratio > half ? half : (ratio < -half ? -half : ratio);
-    }
-    int32_t grade = fx_sub(asin_q30(ratio, &st), s->u.q.eps, &st);
-    put_i32(out + 8, fx_mul(grade, QN, 961263669 /* 180/π, Q24 */, 24, 20, &st));
+    /* Outputs: θ_n read in other Q formats is θ (m: Q19, C_dA_f: Q28, m sin: Q20). */
+    longit_outputs_q(&s->u.q.shared, theta[0], QN - 11, fx_rescale(theta[1], QN - 2, 16, &st),
+                     theta[2], QN - 10, out, &st);
     return st;
 }
 

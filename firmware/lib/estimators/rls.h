@@ -8,7 +8,7 @@
  * (ψ_nᵀ θ_n = z_n exactly as ψᵀ θ = z); it needs v < 82 m/s, |v̇| < 16 m/s²,
  * |z| < 32 kN, m < 4096 kg, and takes no prefilter.
  *
- * Inputs  v [m/s] Q16, v̇ [m/s²] Q20, z [N] Q12.  Outputs m̂ [kg] Q16, Ĉ_dA_f [m²] Q24,
+ * Inputs  v [m/s] Q24, v̇ [m/s²] Q24, z [N] Q14.  Outputs m̂ [kg] Q16, Ĉ_dA_f [m²] Q16,
  * β̂_r [deg] Q20.  Params  λ, P(0) of m and m sin, P(0) of C_dA_f, p_cap, then longit's. */
 #ifndef VEHIL_ESTIMATORS_RLS_H
 #define VEHIL_ESTIMATORS_RLS_H
@@ -31,8 +31,9 @@ typedef struct {
         struct {
             int32_t theta[3]; /* θ_n, Q30 */
             int32_t P[9];     /* Q27 */
-            int32_t theta0[3];                                /* θ_n(0), Q30 */
-            int32_t p0[3], cap[3], lambda, inv_lambda, half_rho, g_n, eps; /* Q27, Q30, Q24, Q30 */
+            int32_t theta0[3];                         /* θ_n(0), Q30 */
+            int32_t p0[3], cap[3], lambda, inv_lambda; /* Q27, Q30 */
+            longit_q_t shared;
         } q;
     } u;
 } rls_state_t;

@@ -3,7 +3,9 @@
 #include <math.h>
 #include <string.h>
 
+#include "fixmath/fixmath.h"
 #include "linalg/chol_f32.h"
+#include "linalg/ldl_q.h"
 #include "proto/wire.h"
 
 enum { P_CHI1, P_CHI2, P_A11, P_A12, P_A13, P_A22, P_A23, P_A33, P_MU, P_COND, N_OWN };
@@ -16,43 +18,58 @@ static const param_range_t ranges[N_OWN] = {
     {-100.0f, 100.0f, 24}, {0.0f, 1.0f, 30},      {1.0f, 1e9f, 0},
 };
 
-/* Time of row j from the window centre, in samples. */
-static float tau(uint8_t j) { return (float)j - (float)CENTRE; }
-
-/* R upper with bandwidth 2 and Rᵀ R = Σ_k E_kᵀ A E_k, the seven terms k stacking rows
- * k, k-1, k-2. Returns 0 when that weight is not positive definite (A is not). */
-static uint8_t band_factor(float band[STLQF_ROWS][3], const float a[3][3])
+/* Where the window's row j (oldest first) is in the ring. */
+static uint8_t slot(const stlqf_state_t *s, uint8_t j)
 {
-    float m[STLQF_ROWS][3] = {{0}};
+    uint8_t i = (uint8_t)(s->head + j);
+    return i >= STLQF_ROWS ? (uint8_t)(i - STLQF_ROWS) : i;
+}
+
+/* Time of row j from the window centre, in samples. */
+static int8_t tau(uint8_t j) { return (int8_t)((int8_t)j - (int8_t)CENTRE); }
+
+/* R (Q20) upper with bandwidth 2 and Rᵀ R = Σ_k E_kᵀ A E_k (A in Q24), the seven terms
+ * k stacking rows k, k-1, k-2. In integers, so both modes and both builds get the same
+ * R. Returns 0 when that weight is not positive definite (A is not). */
+static uint8_t band_factor(int32_t band[STLQF_ROWS][3], const int32_t a[3][3])
+{
+    uint8_t st = 0; /* |a_ij| <= 100: nothing here leaves Q20's range */
+    int32_t m[STLQF_ROWS][3] = {{0}};
     for (uint8_t k = 2; k < STLQF_ROWS; k++) {
         const uint8_t idx[3] = {k, (uint8_t)(k - 1u), (uint8_t)(k - 2u)};
         for (uint8_t p = 0; p < 3u; p++) {
             for (uint8_t q = 0; q < 3u; q++) {
                 if (idx[q] >= idx[p]) {
-                    m[idx[p]][idx[q] - idx[p]] += a[p][q];
+                    m[idx[p]][idx[q] - idx[p]] += fx_rescale(a[p][q], 24, 20, &st);
                 }
             }
         }
     }
     for (uint8_t i = 0; i < STLQF_ROWS; i++) {
-        for (uint8_t d = 0; d < 3u && i + d < STLQF_ROWS; d++) {
+        for (uint8_t d = 0; d < 3u; d++) {
             uint8_t j = (uint8_t)(i + d);
-            float s = m[i][d];
+            if (j >= STLQF_ROWS) {
+                band[i][d] = 0;
+                continue;
+            }
+            int32_t s = m[i][d];
             for (uint8_t k = j >= 2u ? (uint8_t)(j - 2u) : 0u; k < i; k++) {
-                s -= band[k][i - k] * band[k][j - k];
+                s -= fx_mul(band[k][i - k], 20, band[k][j - k], 20, 20, &st);
             }
             if (d == 0u) {
-                if (!(s > 0.0f)) {
+                if (s <= 0) {
                     return 0;
                 }
-                band[i][0] = sqrtf(s);
+                band[i][0] = fx_sqrt(s, 20, &st);
             } else {
-                band[i][d] = s / band[i][0];
+                band[i][d] = fx_div(s, 20, band[i][0], 20, 20, &st);
             }
         }
     }
     return 1;
 }
+
+/* ---- float32 ---- */
 
 /* X = R col for a column given per row. */
 static void band_apply(const float band[STLQF_ROWS][3], const float *col, float *out)
@@ -65,90 +82,51 @@ static void band_apply(const float band[STLQF_ROWS][3], const float *col, float 
     out[STLQF_ROWS - 1u] = band[STLQF_ROWS - 1u][0] * col[STLQF_ROWS - 1u];
 }
 
-static void stlqf_reset(void *state)
+static void configure_f32(stlqf_f32_t *f, const longit_t *model, const uint8_t *params,
+                          const int32_t band[STLQF_ROWS][3])
 {
-    stlqf_state_t *s = state;
-    float theta0[3];
-    longit_initial(&s->model, theta0);
-    for (uint8_t l = 0; l < 3u; l++) {
-        s->theta[2u * l] = 0.0f;
-        s->theta[2u * l + 1u] = theta0[l];
+    for (uint8_t i = 0; i < STLQF_ROWS; i++) {
+        for (uint8_t d = 0; d < 3u; d++) {
+            f->band[i][d] = (float)band[i][d] * (1.0f / 1048576.0f); /* Q20 */
+        }
     }
-    s->n_hist = s->n_rows = 0;
-    longit_reset(&s->model);
-}
-
-static uint8_t stlqf_configure(void *state, uint8_t mode, const uint8_t *params)
-{
-    stlqf_state_t *s = state;
-    uint8_t bad = longit_check(params, mode, ranges, N_OWN);
-    if (bad != 0u) {
-        return bad;
-    }
-    float p[N_OWN];
-    for (uint8_t i = 0; i < N_OWN; i++) {
-        p[i] = get_f32(params + 4u * i);
-    }
-    const float a[3][3] = {
-        {p[P_A11], p[P_A12], p[P_A13]},
-        {p[P_A12], p[P_A22], p[P_A23]},
-        {p[P_A13], p[P_A23], p[P_A33]},
-    };
-    if (!band_factor(s->band, a)) {
-        return 1u + P_A11; /* A is not positive definite */
-    }
-    longit_configure(&s->model, params, N_OWN, mode);
-    float T = s->model.T;
-    s->c1 = p[P_CHI1] / T;
-    s->c2 = p[P_CHI2] / (T * T);
-    s->mu = p[P_MU];
-    s->cond_flag = p[P_COND];
+    float T = model->T;
+    f->c1 = get_f32(params + 4u * P_CHI1) / T;
+    f->c2 = get_f32(params + 4u * P_CHI2) / (T * T);
+    f->mu = get_f32(params + 4u * P_MU);
+    f->cond_flag = get_f32(params + 4u * P_COND);
     /* g/cos ε is constant, so its filtered columns are exact: τ g' + χ1 g'/T and g'. */
     float col[2][STLQF_ROWS];
     for (uint8_t j = 0; j < STLQF_ROWS; j++) {
-        col[0][j] = (tau(j) + s->c1) * s->model.g_cos;
-        col[1][j] = s->model.g_cos;
+        col[0][j] = ((float)tau(j) + f->c1) * model->g_cos;
+        col[1][j] = model->g_cos;
     }
-    band_apply(s->band, col[0], s->x_g[0]);
-    band_apply(s->band, col[1], s->x_g[1]);
-    memset(s->g_gg, 0, sizeof s->g_gg);
+    band_apply(f->band, col[0], f->x_g[0]);
+    band_apply(f->band, col[1], f->x_g[1]);
+    memset(f->g_gg, 0, sizeof f->g_gg);
     for (uint8_t i = 0; i < STLQF_ROWS; i++) {
-        s->g_gg[0] += s->x_g[0][i] * s->x_g[0][i];
-        s->g_gg[1] += s->x_g[1][i] * s->x_g[0][i];
-        s->g_gg[2] += s->x_g[1][i] * s->x_g[1][i];
+        f->g_gg[0] += f->x_g[0][i] * f->x_g[0][i];
+        f->g_gg[1] += f->x_g[1][i] * f->x_g[0][i];
+        f->g_gg[2] += f->x_g[1][i] * f->x_g[1][i];
     }
-    stlqf_reset(s);
-    return 0;
 }
 
-/* One sample into the filtered rows: x + χ1 Δx/T + χ2 Δ²x/T² as differences (α x + β x₋₁
- * + γ x₋₂ with α ~ 1e4 would cancel float32's digits away), and the time column's
- * extra term χ1 x₋₁/T + 2χ2 (x₋₁ - x₋₂)/T². */
-static void push(stlqf_state_t *s, const float *x)
+/* One sample's filtered row: x + χ1 Δx/T + χ2 Δ²x/T² as differences (α x + β x₋₁ + γ x₋₂
+ * with α ~ 1e4 would cancel float32's digits away), and the time column's extra term
+ * χ1 x₋₁/T + 2χ2 (x₋₁ - x₋₂)/T². */
+static void filter_f32(const stlqf_f32_t *f, const float *x, const float h[2][3], float *row)
 {
-    if (s->n_hist == 2u) {
-        float row[STLQF_COLS];
-        for (uint8_t c = 0; c < 3u; c++) {
-            float d1 = x[c] - s->hist[0][c];
-            float d0 = s->hist[0][c] - s->hist[1][c];
-            float filtered = x[c] + s->c1 * d1 + s->c2 * (d1 - d0);
-            if (c < 2u) {
-                row[c] = filtered;
-                row[2u + c] = s->c1 * s->hist[0][c] + 2.0f * s->c2 * d0;
-            } else {
-                row[4] = filtered;
-            }
+    for (uint8_t c = 0; c < 3u; c++) {
+        float d1 = x[c] - h[0][c];
+        float d0 = h[0][c] - h[1][c];
+        float filtered = x[c] + f->c1 * d1 + f->c2 * (d1 - d0);
+        if (c < 2u) {
+            row[c] = filtered;
+            row[2u + c] = f->c1 * h[0][c] + 2.0f * f->c2 * d0;
+        } else {
+            row[4] = filtered;
         }
-        memmove(s->rows[0], s->rows[1], sizeof s->rows - sizeof s->rows[0]);
-        memcpy(s->rows[STLQF_ROWS - 1u], row, sizeof row);
-        if (s->n_rows < STLQF_ROWS) {
-            s->n_rows++;
-        }
-    } else {
-        s->n_hist++;
     }
-    memcpy(s->hist[1], s->hist[0], sizeof s->hist[0]);
-    memcpy(s->hist[0], x, sizeof s->hist[0]);
 }
 
 /* The window's θ: G = Xᵀ X and U = Xᵀ R ζ, Jacobi-scaled, (G_s + μ I) y = U_s + μ y_prior. */
@@ -161,22 +139,23 @@ static float dot(const float *a, const float *b)
            a[6] * b[6] + a[7] * b[7] + a[8] * b[8];
 }
 
-static uint8_t solve(stlqf_state_t *s, float *cond)
+static uint8_t solve_f32(stlqf_state_t *s, float *log_cond)
 {
+    stlqf_f32_t *f = &s->u.f32;
     /* Φ̃'s varying columns [τ v̇, v̇, τ q, q] and ζ, then X = R Φ̃ column by column. */
     float phi[5][STLQF_ROWS], x[5][STLQF_ROWS];
     for (uint8_t j = 0; j < STLQF_ROWS; j++) {
-        const float *row = s->rows[j];
-        phi[0][j] = tau(j) * row[0] + row[2];
+        const float *row = s->rows.f[slot(s, j)];
+        phi[0][j] = (float)tau(j) * row[0] + row[2];
         phi[1][j] = row[0];
-        phi[2][j] = tau(j) * row[1] + row[3];
+        phi[2][j] = (float)tau(j) * row[1] + row[3];
         phi[3][j] = row[1];
         phi[4][j] = row[4];
     }
     for (uint8_t c = 0; c < 5u; c++) {
-        band_apply(s->band, phi[c], x[c]);
+        band_apply(f->band, phi[c], x[c]);
     }
-    const float *col[7] = {x[0], x[1], x[2], x[3], s->x_g[0], s->x_g[1], x[4]};
+    const float *col[7] = {x[0], x[1], x[2], x[3], f->x_g[0], f->x_g[1], x[4]};
     float g[36], rhs[6];
     for (uint8_t a = 0; a < 6u; a++) {
         for (uint8_t b = 0; b <= a && b < 4u; b++) {
@@ -184,9 +163,9 @@ static uint8_t solve(stlqf_state_t *s, float *cond)
         }
         rhs[a] = dot(col[a], col[6]);
     }
-    g[4 * 6 + 4] = s->g_gg[0];
-    g[5 * 6 + 4] = s->g_gg[1];
-    g[5 * 6 + 5] = s->g_gg[2];
+    g[4 * 6 + 4] = f->g_gg[0];
+    g[5 * 6 + 4] = f->g_gg[1];
+    g[5 * 6 + 5] = f->g_gg[2];
     /* (D G D + μ I) y = D U + μ y_prior with D = diag(G)^-1/2 and θ = D y is, multiplied
      * out, (G + μ diag G) θ = U + μ diag(G) θ_prior: the Jacobi-scaled system without
      * the scaling (Cholesky's rounding does not depend on it), ~12 k cycles saved. */
@@ -196,12 +175,14 @@ static uint8_t solve(stlqf_state_t *s, float *cond)
         scale[a] = gaa > 0.0f ? gaa : 1.0f; /* a column of zeros (standing still) */
         /* The prior: a value where the last window's line puts it one sample later,
          * a slope zero. */
-        float prior = (a & 1u) ? s->theta[a] + s->theta[a - 1u] : 0.0f;
-        float pull = s->mu * scale[a];
+        float prior = (a & 1u) ? f->theta[a] + f->theta[a - 1u] : 0.0f;
+        float pull = f->mu * scale[a];
         g[a * 6u + a] += pull;
         rhs[a] += pull * prior;
     }
-    if (!chol_solve_f32(g, rhs, 6, cond)) {
+    float cond;
+    if (!chol_solve_f32(g, rhs, 6, &cond)) {
+        *log_cond = INFINITY;
         return STATUS_SINGULAR;
     }
     /* The condition estimate of the scaled matrix: its pivots are L_ii² / G_ii. */
@@ -210,17 +191,351 @@ static uint8_t solve(stlqf_state_t *s, float *cond)
         float pivot = g[a * 6u + a] * g[a * 6u + a] / scale[a];
         lo = (a == 0u || pivot < lo) ? pivot : lo;
         hi = (a == 0u || pivot > hi) ? pivot : hi;
-        s->theta[a] = rhs[a];
+        f->theta[a] = rhs[a];
     }
-    *cond = hi / lo;
-    return *cond > s->cond_flag ? STATUS_ILL_CONDITIONED : 0u;
+    cond = hi / lo;
+    *log_cond = log10f(cond);
+    return cond > f->cond_flag ? STATUS_ILL_CONDITIONED : 0u;
 }
 
-static uint8_t stlqf_step(void *state, const uint8_t *in, uint8_t in_len, uint8_t *out,
-                          uint8_t *out_len)
+/* ---- fixed point ---- */
+
+#define SPLIT 14
+#define WIDE_LIMIT ((int32_t)12000 << SPLIT) /* |column of X| before it is split */
+/* |column of Φ̃|: split, its hi is at most 2^13, so three products with R fit int32. */
+#define PHI_LIMIT (((int32_t)1 << 27) - ((int32_t)1 << 13))
+#define R_LIMIT 16383
+/* The rows' fraction bits: the inputs' (longit: v̇ Q24, ½ρv² Q18, z Q14) and 6 more. */
+static const uint8_t row_q[3] = {24 + 6, 18 + 6, 14 + 6};
+#define THETA_Q 16 /* θ's entries in FIXED */
+
+static uint8_t bit_length(uint64_t x)
 {
-    (void)in_len;
+    uint8_t n = 0;
+    while (x >> 8 != 0u) { /* whole bytes first: the AVR shifts a bit at a time */
+        x >>= 8;
+        n += 8;
+    }
+    while (x != 0u) {
+        x >>= 1;
+        n++;
+    }
+    return n;
+}
+
+static uint64_t magnitude(int64_t x) { return x < 0 ? (uint64_t)0 - (uint64_t)x : (uint64_t)x; }
+
+/* x · 2^up, rounded, saturated. */
+static int32_t scale_pow2(int64_t x, int16_t up, uint8_t *st)
+{
+    if (up > 0) {
+        return (x == 0 || up < 32) ? fx_sat(up < 32 ? fx_round_shift(x, (int8_t)-up) : 0, st)
+                                   : fx_sat(x > 0 ? INT64_MAX : INT64_MIN, st);
+    }
+    return up < -62 ? 0 : fx_sat(fx_round_shift(x, (int8_t)-up), st);
+}
+
+/* in[0..n) scaled by 2^-k to the most bits that keep |out| <= limit (rounded half up);
+ * returns k (0 for a column of zeros). */
+static int8_t normalize(const int64_t *in, int32_t *out, uint8_t n, int32_t limit)
+{
+    uint64_t peak = 0;
+    for (uint8_t i = 0; i < n; i++) {
+        uint64_t mag = magnitude(in[i]);
+        peak = mag > peak ? mag : peak;
+    }
+    if (peak == 0u) {
+        memset(out, 0, n * sizeof *out);
+        return 0;
+    }
+    int8_t k = (int8_t)(bit_length(peak) - bit_length((uint64_t)limit));
+    if (fx_round_shift((int64_t)peak, k) > limit) {
+        k++;
+    }
+    int64_t half = k > 0 ? (int64_t)1 << (k - 1) : 0;
+    for (uint8_t i = 0; i < n; i++) {
+        out[i] = (int32_t)(k > 0 ? (in[i] + half) >> k : in[i] * ((int64_t)1 << -k));
+    }
+    return k;
+}
+
+static void split(const int32_t *w, stlqf_split_t *x)
+{
+    for (uint8_t i = 0; i < STLQF_ROWS; i++) {
+        int32_t hi = (w[i] + ((int32_t)1 << (SPLIT - 1))) >> SPLIT;
+        x->hi[i] = (int16_t)hi;
+        x->lo[i] = (int16_t)(w[i] - hi * ((int32_t)1 << SPLIT));
+    }
+}
+
+/* x = R col, split; returns x's exponent relative to col's (R at its own scale, the
+ * same for every column, which cancels in the solve). */
+static int8_t weigh(const int16_t band[STLQF_ROWS][3], const int64_t *col, stlqf_split_t *x)
+{
+    int32_t w[STLQF_ROWS];
+    int64_t wide[STLQF_ROWS];
+    stlqf_split_t c;
+    int8_t e = normalize(col, w, STLQF_ROWS, PHI_LIMIT);
+    split(w, &c);
+    for (uint8_t i = 0; i < STLQF_ROWS; i++) {
+        int32_t hi = 0, lo = 0;
+        for (uint8_t d = 0; d < 3u && i + d < STLQF_ROWS; d++) {
+            hi += (int32_t)band[i][d] * c.hi[i + d];
+            lo += (int32_t)band[i][d] * c.lo[i + d];
+        }
+        wide[i] = (int64_t)hi * ((int32_t)1 << SPLIT) + lo;
+    }
+    e = (int8_t)(e + normalize(wide, w, STLQF_ROWS, WIDE_LIMIT));
+    split(w, x);
+    return e;
+}
+
+/* Σ a_i b_i · 2^-14, the lo·lo terms (2^-28 of it) left out. */
+static int64_t dot_split(const stlqf_split_t *a, const stlqf_split_t *b)
+{
+    int32_t hh = 0, cross = 0; /* 9 · 12000² and 18 · 12000 · 2^13 fit */
+    for (uint8_t i = 0; i < STLQF_ROWS; i++) {
+        hh += (int32_t)a->hi[i] * b->hi[i];
+        cross += (int32_t)a->hi[i] * b->lo[i] + (int32_t)a->lo[i] * b->hi[i];
+    }
+    return (int64_t)hh * ((int32_t)1 << SPLIT) + cross;
+}
+
+/* A Gram sum (dot_split) as the solve's Q30: Σ x_a x_b / 2^59, below 0.61. */
+static int32_t gram_q30(int64_t t) { return (int32_t)fx_round_shift(t, 15); }
+
+static uint8_t configure_q(stlqf_q_t *q, const uint8_t *params, const int32_t band[STLQF_ROWS][3])
+{
+    uint8_t st = 0; /* the ranges checked keep every operation below in range */
+    longit_configure_q(&q->shared, params, N_OWN);
+    int32_t T = param_q(params, N_OWN + LONGIT_T);
+    q->c1 = fx_div(param_q(params, P_CHI1), 24, T, 30, 16, &st);
+    q->c2 = fx_div(fx_div(param_q(params, P_CHI2), 24, T, 30, 16, &st), 16, T, 30, 6, &st);
+    if (q->c2 >= ((int32_t)1 << 26)) {
+        return 1u + P_CHI2; /* χ2/T² past 2^20: the filter's products would not fit */
+    }
+    q->mu = param_q(params, P_MU);
+    q->log2_cond_flag = fx_log2_q24(param_q(params, P_COND), 0);
+    int64_t wide[STLQF_ROWS * 3];
+    int32_t narrow[STLQF_ROWS * 3];
+    for (uint8_t i = 0; i < STLQF_ROWS * 3u; i++) {
+        wide[i] = band[i / 3u][i % 3u];
+    }
+    normalize(wide, narrow, STLQF_ROWS * 3u, R_LIMIT);
+    for (uint8_t i = 0; i < STLQF_ROWS * 3u; i++) {
+        q->band[i / 3u][i % 3u] = (int16_t)narrow[i];
+    }
+    /* g/cos ε's filtered columns, exact: (τ + χ1/T) g' and g', in Q42. */
+    int64_t col[2][STLQF_ROWS];
+    for (uint8_t j = 0; j < STLQF_ROWS; j++) {
+        col[0][j] = ((int64_t)tau(j) * 65536 + q->c1) * q->shared.g_cos;
+        col[1][j] = (int64_t)q->shared.g_cos * 65536;
+    }
+    for (uint8_t c = 0; c < 2u; c++) {
+        q->e_g[c] = (int8_t)(weigh(q->band, col[c], &q->x_g[c]) - 42);
+    }
+    q->g_gg[0] = gram_q30(dot_split(&q->x_g[0], &q->x_g[0]));
+    q->g_gg[1] = gram_q30(dot_split(&q->x_g[1], &q->x_g[0]));
+    q->g_gg[2] = gram_q30(dot_split(&q->x_g[1], &q->x_g[1]));
+    return 0;
+}
+
+/* filter_f32 in integers, exact but for χ1/T's product (rounded at 6 fraction bits
+ * past the input's): the inputs' bounds and χ2/T² < 2^20 keep every sum in int64. */
+static void filter_q(const stlqf_q_t *q, const int32_t *x, const int32_t h[2][3], int64_t *row)
+{
+    for (uint8_t c = 0; c < 3u; c++) {
+        int32_t d1 = x[c] - h[0][c], d0 = h[0][c] - h[1][c]; /* the bounds keep these */
+        int64_t f = (int64_t)x[c] * 64 + fx_round_shift((int64_t)q->c1 * d1, 10) +
+                    (int64_t)q->c2 * ((int64_t)d1 - d0);
+        if (c < 2u) {
+            row[c] = f;
+            row[2u + c] = fx_round_shift((int64_t)q->c1 * h[0][c], 10) + 2 * (int64_t)q->c2 * d0;
+        } else {
+            row[4] = f;
+        }
+    }
+}
+
+/* solve_f32's system with X's columns in block floating point, x_a 2^E_a. In y_a =
+ * θ_a 2^(E_a - S) it reads G y = U (G, U the integer Gram sums; S >= ζ's exponent,
+ * chosen so the prior fits), solved for the step from the prior, (G + μ diag G) δ =
+ * U - G y_prior, with G / 2^59 and δ in Q30: the prior keeps all its bits where a
+ * column explains little of ζ (a tiny y), and where the data say nothing δ is 0. */
+static uint8_t solve_q(stlqf_state_t *s, int32_t *log_cond)
+{
+    stlqf_q_t *q = &s->u.q;
+    uint8_t st = 0;
+    stlqf_split_t x[5]; /* [τ v̇, v̇, τ q, q] and ζ, as X */
+    int8_t e[6];
+    int64_t phi[STLQF_ROWS];
+    for (uint8_t c = 0; c < 5u; c++) {
+        uint8_t ch = c < 4u ? (uint8_t)(c >> 1) : 2u; /* v̇, ½ρv², z */
+        uint8_t at = c < 4u ? ch : 4u;
+        for (uint8_t j = 0; j < STLQF_ROWS; j++) {
+            const int64_t *row = s->rows.q[slot(s, j)];
+            phi[j] = (c < 4u && !(c & 1u)) ? tau(j) * row[at] + row[2u + ch] : row[at];
+        }
+        e[c < 4u ? c : 4u] = (int8_t)(weigh(q->band, phi, &x[c]) - row_q[ch]);
+    }
+    int8_t e_z = e[4];
+    e[4] = q->e_g[0];
+    e[5] = q->e_g[1];
+    const stlqf_split_t *col[6] = {&x[0], &x[1], &x[2], &x[3], &q->x_g[0], &q->x_g[1]};
+    int32_t g[36];
+    for (uint8_t a = 0; a < 6u; a++) {
+        for (uint8_t b = 0; b <= a && b < 4u; b++) {
+            g[a * 6u + b] = g[b * 6u + a] = gram_q30(dot_split(col[a], col[b]));
+        }
+    }
+    g[4 * 6 + 4] = q->g_gg[0];
+    g[5 * 6 + 4] = g[4 * 6 + 5] = q->g_gg[1];
+    g[5 * 6 + 5] = q->g_gg[2];
+    /* S: ζ's exponent, or larger where a prior value would pass |y| = 64. */
+    int32_t prior[6];
+    int16_t S = INT8_MIN;
+    for (uint8_t i = 0; i < STLQF_ROWS && S == INT8_MIN; i++) {
+        S = (x[4].hi[i] | x[4].lo[i]) != 0 ? e_z : INT8_MIN;
+    }
+    for (uint8_t a = 0; a < 6u; a++) {
+        prior[a] = (a & 1u) ? fx_add(q->theta[a], q->theta[a - 1u], &st) : 0;
+        if (g[a * 6u + a] != 0 && prior[a] != 0) {
+            int16_t need = (int16_t)(bit_length(magnitude(prior[a])) + e[a] - THETA_Q - 6);
+            S = need > S ? need : S;
+        }
+    }
+    S = S == INT8_MIN ? 0 : S;
+    /* U - G y_prior in Q30, summed in int64 (U and G y_prior pass Q30's range where
+     * their difference does not); y_prior with 30 significant bits, in Q(30 + extra). */
+    int64_t acc[6];
+    for (uint8_t a = 0; a < 6u; a++) {
+        acc[a] = fx_round_shift(dot_split(col[a], &x[4]), (int8_t)(15 - (e_z - S)));
+    }
+    for (uint8_t b = 1; b < 6u; b += 2u) {
+        if (g[b * 6u + b] == 0 || prior[b] == 0) {
+            continue;
+        }
+        int8_t up = (int8_t)(30 - bit_length(magnitude(prior[b])));
+        int8_t extra = (int8_t)(up - (e[b] - S - THETA_Q + 30));
+        int32_t y_prior = scale_pow2(prior[b], up, &st);
+        if (extra > 32) { /* y_prior below 2^-32: nothing it adds to U counts */
+            continue;
+        }
+        for (uint8_t a = 0; a < 6u; a++) {
+            acc[a] -= fx_round_shift((int64_t)g[a * 6u + b] * y_prior, (int8_t)(30 + extra));
+        }
+    }
+    int32_t rhs[6], scale[6];
+    for (uint8_t a = 0; a < 6u; a++) {
+        rhs[a] = fx_sat(acc[a], &st);
+    }
+    for (uint8_t a = 0; a < 6u; a++) {
+        int32_t *gaa = &g[a * 6u + a];
+        if (*gaa == 0) {
+            e[a] = (int8_t)(S + THETA_Q - 30); /* a column of zeros: δ is θ's integer */
+        }
+        scale[a] = *gaa > 0 ? *gaa : ((int32_t)1 << 30);
+        *gaa = fx_add(*gaa, fx_mul_shr(q->mu, scale[a], 30, &st), &st);
+    }
+    if (!ldl_solve_q(g, rhs, 6, &st)) {
+        *log_cond = INT32_MAX;
+        return (uint8_t)(st | STATUS_SINGULAR);
+    }
+    /* The condition estimate of the Jacobi-scaled matrix: its pivots are D_a / G_aa. */
+    int32_t lo = 0, hi = 0;
+    for (uint8_t a = 0; a < 6u; a++) {
+        int32_t pivot = fx_log2_q24(g[a * 6u + a], 30) - fx_log2_q24(scale[a], 30);
+        lo = (a == 0u || pivot < lo) ? pivot : lo;
+        hi = (a == 0u || pivot > hi) ? pivot : hi;
+        int32_t step = scale_pow2(rhs[a], (int16_t)(S - e[a] + THETA_Q - 30), &st);
+        q->theta[a] = fx_add(prior[a], step, &st);
+    }
+    *log_cond = fx_mul_shr(hi - lo, 323228497 /* log10 2, Q30 */, 30, &st);
+    return (uint8_t)(st | (hi - lo > q->log2_cond_flag ? STATUS_ILL_CONDITIONED : 0u));
+}
+
+/* ---- both ---- */
+
+static void stlqf_reset(void *state)
+{
     stlqf_state_t *s = state;
+    if (s->mode == MODE_F32) {
+        float theta0[3];
+        longit_initial(&s->model, theta0);
+        for (uint8_t l = 0; l < 3u; l++) {
+            s->u.f32.theta[2u * l] = 0.0f;
+            s->u.f32.theta[2u * l + 1u] = theta0[l];
+        }
+    } else {
+        const longit_q_t *l = &s->u.q.shared;
+        uint8_t st = 0;
+        memset(s->u.q.theta, 0, sizeof s->u.q.theta);
+        s->u.q.theta[1] = l->m0;
+        s->u.q.theta[3] = fx_rescale(l->cda0, 24, 16, &st);
+        s->u.q.theta[5] = fx_mul(l->m0, 16, l->sin_eps, 30, 16, &st);
+    }
+    s->n_hist = s->n_rows = s->head = 0;
+    longit_reset(&s->model);
+}
+
+static uint8_t stlqf_configure(void *state, uint8_t mode, const uint8_t *params)
+{
+    stlqf_state_t *s = state;
+    uint8_t bad = longit_check(params, mode, ranges, N_OWN);
+    if (bad != 0u) {
+        return bad;
+    }
+    int32_t a_q[6]; /* a11 a12 a13 a22 a23 a33, Q24 */
+    for (uint8_t i = 0; i < 6u; i++) {
+        uint8_t st = 0;
+        a_q[i] = mode == MODE_F32 ? fx_from_float(get_f32(params + 4u * (P_A11 + i)), 24, &st)
+                                  : param_q(params, (uint8_t)(P_A11 + i));
+    }
+    const int32_t a[3][3] = {
+        {a_q[0], a_q[1], a_q[2]},
+        {a_q[1], a_q[3], a_q[4]},
+        {a_q[2], a_q[4], a_q[5]},
+    };
+    int32_t band[STLQF_ROWS][3];
+    if (!band_factor(band, a)) {
+        return 1u + P_A11; /* A is not positive definite */
+    }
+    longit_configure(&s->model, params, N_OWN, mode);
+    s->mode = mode;
+    if (mode == MODE_F32) {
+        configure_f32(&s->u.f32, &s->model, params, band);
+    } else {
+        bad = configure_q(&s->u.q, params, band);
+        if (bad != 0u) {
+            return bad;
+        }
+    }
+    stlqf_reset(s);
+    return 0;
+}
+
+/* One sample into the window: its filtered row once two came before it. */
+static void push(stlqf_state_t *s, const void *x)
+{
+    if (s->n_hist == 2u) {
+        if (s->mode == MODE_F32) {
+            filter_f32(&s->u.f32, x, (const float(*)[3])s->hist.f, s->rows.f[s->head]);
+        } else {
+            filter_q(&s->u.q, x, (const int32_t(*)[3])s->hist.q, s->rows.q[s->head]);
+        }
+        s->head = slot(s, 1);
+        if (s->n_rows < STLQF_ROWS) {
+            s->n_rows++;
+        }
+    } else {
+        s->n_hist++;
+    }
+    memcpy(s->hist.q[1], s->hist.q[0], sizeof s->hist.q[0]);
+    memcpy(s->hist.q[0], x, sizeof s->hist.q[0]);
+}
+
+static uint8_t step_f32(stlqf_state_t *s, const uint8_t *in, uint8_t *out)
+{
     float psi[3], z, log_cond = 0.0f;
     /* A non-finite sample is dropped: the window keeps its rows. */
     uint8_t status = longit_inputs(&s->model, in, psi, &z);
@@ -228,21 +543,43 @@ static uint8_t stlqf_step(void *state, const uint8_t *in, uint8_t in_len, uint8_
         const float x[3] = {psi[0], psi[1], z};
         push(s, x);
         if (s->n_rows == STLQF_ROWS) {
-            float cond = 0.0f;
-            status = solve(s, &cond);
-            log_cond = status & STATUS_SINGULAR ? INFINITY : log10f(cond);
+            status |= solve_f32(s, &log_cond);
         }
     }
-    status |= longit_outputs(&s->model, s->theta[1], s->theta[3], s->theta[5], out);
+    const float *theta = s->u.f32.theta;
+    status |= longit_outputs(&s->model, theta[1], theta[3], theta[5], out);
     put_f32(out + 12, log_cond);
-    *out_len = 16;
     return status;
+}
+
+static uint8_t step_q(stlqf_state_t *s, const uint8_t *in, uint8_t *out)
+{
+    uint8_t st = 0;
+    int32_t x[3], log_cond = 0;
+    longit_inputs_q(&s->u.q.shared, in, x, &st);
+    push(s, x);
+    if (s->n_rows == STLQF_ROWS) {
+        st |= solve_q(s, &log_cond);
+    }
+    const int32_t *theta = s->u.q.theta;
+    longit_outputs_q(&s->u.q.shared, theta[1], THETA_Q, theta[3], theta[5], THETA_Q, out, &st);
+    put_i32(out + 12, log_cond);
+    return st;
+}
+
+static uint8_t stlqf_step(void *state, const uint8_t *in, uint8_t in_len, uint8_t *out,
+                          uint8_t *out_len)
+{
+    (void)in_len;
+    stlqf_state_t *s = state;
+    *out_len = 16;
+    return s->mode == MODE_F32 ? step_f32(s, in, out) : step_q(s, in, out);
 }
 
 const estimator_t stlqf_estimator = {
     .id = STLQF_ID,
     .name = "stlqf",
-    .modes = 1u << MODE_F32,
+    .modes = (1u << MODE_F32) | (1u << MODE_FIXED),
     .n_inputs = 3,
     .n_outputs = 4,
     .n_params = N_PARAMS,

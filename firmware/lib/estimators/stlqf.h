@@ -6,9 +6,14 @@
  * Cholesky with μ pulling each value towards the previous window's and each slope
  * towards zero (host: estimators/stlqf.py).
  *
- * Inputs  v [m/s], v̇ [m/s²], z [N].  Outputs m̂ [kg], Ĉ_dA_f [m²], β̂_r [deg], log10 cond.
- * Params  χ1, χ2, a11 a12 a13 a22 a23 a33, μ, cond_flag, then longit's (ε, ρ, g, m0,
- *         C_dA_f0, T, prefilter Hz). float32. */
+ * FIXED keeps the window's filtered rows exact in int64, takes each column of X in 28 bits
+ * (two int16) with an exponent of its own (block floating point), so the Gram sums are
+ * int16 products; scales the system by powers of two and solves it by LDLᵀ in Q30
+ * (linalg/ldl_q). Its inputs must keep longit's FIXED bounds, and χ2/T² < 2^20.
+ *
+ * Inputs  v [m/s] Q24, v̇ [m/s²] Q24, z [N] Q14.  Outputs m̂ [kg] Q16, Ĉ_dA_f [m²] Q16,
+ * β̂_r [deg] Q20, log10 cond Q24.  Params  χ1, χ2, a11 a12 a13 a22 a23 a33, μ,
+ * cond_flag, then longit's (ε, ρ, g, m0, C_dA_f0, T, prefilter Hz). */
 #ifndef VEHIL_ESTIMATORS_STLQF_H
 #define VEHIL_ESTIMATORS_STLQF_H
 
@@ -23,16 +28,46 @@
 #define STLQF_COLS 5u /* per row: ψ̃ and the time column's e for v̇ and ½ρv², then ζ */
 
 typedef struct {
-    longit_t model;
-    float c1, c2;  /* χ1/T, χ2/T² */
+    float c1, c2; /* χ1/T, χ2/T² */
     float mu, cond_flag;
-    float band[STLQF_ROWS][3];    /* R(i, i + d) */
-    float x_g[2][STLQF_ROWS];     /* X's columns of g/cos ε (constant: its filters are exact) */
-    float g_gg[3];                /* their Gram entries */
-    float hist[2][3];             /* v̇, ½ρv², z of the last two samples, newest first */
-    float rows[STLQF_ROWS][STLQF_COLS]; /* oldest first */
-    float theta[6];               /* [slope, value at the centre] per parameter */
-    uint8_t n_hist, n_rows;
+    float band[STLQF_ROWS][3]; /* R(i, i + d) */
+    float x_g[2][STLQF_ROWS];  /* X's columns of g/cos ε (constant: its filters are exact) */
+    float g_gg[3];             /* their Gram entries */
+    float theta[6];            /* [slope, value at the centre] per parameter */
+} stlqf_f32_t;
+
+/* A column of X in FIXED: hi · 2^14 + lo, |hi| <= 12000, |lo| <= 2^13 (28 bits in two
+ * int16, so its Gram sums are int16 products in int32), times 2^(an exponent). */
+typedef struct {
+    int16_t hi[STLQF_ROWS], lo[STLQF_ROWS];
+} stlqf_split_t;
+
+typedef struct {
+    int32_t c1, c2;             /* χ1/T Q16, χ2/T² Q6 */
+    int32_t mu, log2_cond_flag; /* Q30, Q24 */
+    int16_t band[STLQF_ROWS][3]; /* R scaled to |R_ij| < 2^14 */
+    stlqf_split_t x_g[2];        /* X's g/cos ε columns */
+    int8_t e_g[2];               /* their exponents */
+    int32_t g_gg[3];             /* their Gram entries as the solve takes them (Q30) */
+    int32_t theta[6];            /* Q16 */
+    longit_q_t shared;
+} stlqf_q_t;
+
+typedef struct {
+    longit_t model;
+    union {
+        stlqf_f32_t f32;
+        stlqf_q_t q;
+    } u;
+    union {
+        float f[2][3];
+        int32_t q[2][3];
+    } hist; /* v̇, ½ρv², z of the last two samples, newest first */
+    union {
+        float f[STLQF_ROWS][STLQF_COLS];
+        int64_t q[STLQF_ROWS][STLQF_COLS]; /* exact: the inputs' Q + 6 fraction bits */
+    } rows; /* a ring: the oldest at head once full */
+    uint8_t mode, n_hist, n_rows, head;
 } stlqf_state_t;
 
 extern const estimator_t stlqf_estimator;

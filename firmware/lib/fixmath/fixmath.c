@@ -34,6 +34,11 @@ int32_t fx_mul(int32_t a, uint8_t qa, int32_t b, uint8_t qb, uint8_t q_out, uint
     return fx_sat(fx_round_shift((int64_t)a * b, (int8_t)(qa + qb - q_out)), status);
 }
 
+int32_t fx_mul_shr(int32_t a, int32_t b, uint8_t s, uint8_t *status)
+{
+    return fx_sat(((int64_t)a * b + ((int64_t)1 << (s - 1u))) >> s, status);
+}
+
 int32_t fx_div(int32_t a, uint8_t qa, int32_t b, uint8_t qb, uint8_t q_out, uint8_t *status)
 {
     if (b == 0) {
@@ -136,4 +141,52 @@ int32_t fx_from_float(float x, uint8_t q, uint8_t *status)
         return FX_MIN;
     }
     return (int32_t)(scaled < 0.0f ? scaled - 0.5f : scaled + 0.5f);
+}
+
+void fx_small_cos_sin_q30(int32_t eps, int32_t *c, int32_t *s, uint8_t *status)
+{
+    const int32_t one = (int32_t)1 << 30;
+    int32_t e2 = fx_mul(eps, 30, eps, 30, 30, status);
+    int32_t e4 = fx_mul(e2, 30, e2, 30, 30, status);
+    *c = fx_add(fx_sub(one, e2 / 2, status), e4 / 24, status);
+    int32_t s3 = fx_sub(one, fx_sub(e2 / 6, e4 / 120, status), status);
+    *s = fx_mul(eps, 30, s3, 30, 30, status);
+}
+
+int32_t fx_asin_q30(int32_t x, uint8_t *status)
+{
+    static const int32_t c[] = {1073741824, 178956971, 80530637, 47934905, 32622364};
+    int32_t x2 = fx_mul(x, 30, x, 30, 30, status);
+    int32_t acc = c[4];
+    for (int8_t i = 3; i >= 0; i--) {
+        acc = fx_add(fx_mul(acc, 30, x2, 30, 30, status), c[i], status);
+    }
+    return fx_mul(acc, 30, x, 30, 30, status);
+}
+
+/* log2(1 + k/16) in Q24, k = 0..16. */
+static const int32_t log2_table[17] = {
+    0,        1467383,  2850868,  4159533,  5401057,  6581994,  7707984,  8783912, 9814042,
+    10802114, 11751428, 12664911, 13545168, 14394532, 15215099, 16008758, 16777216,
+};
+
+int32_t fx_log2_q24(int32_t x, uint8_t q)
+{
+    if (x <= 0) {
+        return INT32_MIN;
+    }
+    uint32_t m = (uint32_t)x;
+    int8_t top = 31;
+    while (!(m & 0xff000000u)) { /* whole bytes first: the AVR shifts one bit a cycle pair */
+        m <<= 8;
+        top -= 8;
+    }
+    while (!(m & 0x80000000u)) { /* the leading bit to bit 31: m = 2^31 (1 + f) */
+        m <<= 1;
+        top--;
+    }
+    uint32_t idx = (m >> 27) & 15u, frac = (m >> 17) & 0x3ffu; /* f in 16ths, the rest */
+    int32_t lo = log2_table[idx], hi = log2_table[idx + 1u];
+    int32_t mant = lo + (int32_t)(((uint32_t)(hi - lo) * frac + (1u << 9)) >> 10);
+    return (int32_t)(top - (int8_t)q) * 16777216 + mant;
 }

@@ -28,6 +28,11 @@ int64_t fx_round_shift(int64_t x, int8_t shift);
 /* a (qa) * b (qb) -> q_out. */
 int32_t fx_mul(int32_t a, uint8_t qa, int32_t b, uint8_t qb, uint8_t q_out, uint8_t *status);
 
+/* a · b · 2^-s (1 <= s <= 62), rounded half up, saturated: the fast kernel for hot
+ * loops (no variable-width rounding logic; GCC, in both builds, shifts a negative int64
+ * arithmetically). */
+int32_t fx_mul_shr(int32_t a, int32_t b, uint8_t s, uint8_t *status);
+
 /* a (qa) / b (qb) -> q_out; b == 0 saturates towards a's sign and flags STATUS_SINGULAR. */
 int32_t fx_div(int32_t a, uint8_t qa, int32_t b, uint8_t qb, uint8_t q_out, uint8_t *status);
 
@@ -47,5 +52,16 @@ int32_t fx_sqrt(int32_t a, uint8_t q, uint8_t *status);
 /* round(x * 2^q) saturated to int32 (NaN gives 0 and STATUS_NOT_FINITE); q <= 62.
  * Only multiplications by 2 and one rounding: the AVR and the host give the same bits. */
 int32_t fx_from_float(float x, uint8_t q, uint8_t *status);
+
+/* cos ε and sin ε in Q30 for a small angle ε (Q30, |ε| <= 0.1 rad) from their series:
+ * libm's last bit differs between avr-libc and the host, and FIXED needs the same bits. */
+void fx_small_cos_sin_q30(int32_t eps, int32_t *c, int32_t *s, uint8_t *status);
+
+/* asin x in Q30 for x in Q30, |x| <= 1/2 (30°), from its series to x⁹: error < 1e-5 rad. */
+int32_t fx_asin_q30(int32_t x, uint8_t *status);
+
+/* log2(x · 2^-q) in Q24 for x > 0 (x <= 0 gives INT32_MIN): the leading bit's position
+ * and a 17-entry table with linear interpolation, |error| < 1e-3. */
+int32_t fx_log2_q24(int32_t x, uint8_t q);
 
 #endif

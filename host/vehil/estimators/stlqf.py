@@ -50,13 +50,13 @@ ROWS = WINDOW - 2  # filtered rows in a window: φ̃[k] needs φ[k-2]
 EPS_DEFAULT = math.atan(0.015)
 
 INPUTS = (
-    Signal("v", "m/s", q=16, doc="vehicle speed"),
-    Signal("v_dot", "m/s^2", q=20, doc="vehicle acceleration"),
-    Signal("z", "N", q=12, doc="measured tractive force F_x (eq. 27)"),
+    Signal("v", "m/s", q=24, doc="vehicle speed"),
+    Signal("v_dot", "m/s^2", q=24, doc="vehicle acceleration"),
+    Signal("z", "N", q=14, doc="measured tractive force F_x (eq. 27)"),
 )
 OUTPUTS = (
     Signal("m", "kg", q=16, doc="vehicle mass m̂"),
-    Signal("cda", "m^2", q=24, doc="drag area Ĉ_dA_f"),
+    Signal("cda", "m^2", q=16, doc="drag area Ĉ_dA_f (Q16: transients pass ±128 m²)"),
     Signal("grade", "deg", q=20, doc="road grade β̂_r"),
 )
 SHARED_PARAMS = (
@@ -283,7 +283,7 @@ STLQF = register(
         outputs=(*OUTPUTS, Signal("log_cond", "1", q=24, doc="log10 condition estimate")),
         reference=Stlqf,
         params=STLQF_PARAMS,
-        modes=("F32",),
+        modes=("F32", "FIXED"),
         paper="002-stlqf-hil-mega2560",
         delay=WL,
     )
