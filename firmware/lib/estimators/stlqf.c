@@ -200,16 +200,15 @@ static uint8_t solve_f32(stlqf_state_t *s, float *log_cond)
 
 /* ---- fixed point ---- */
 
-#define SPLIT 14
-#define WIDE_LIMIT ((int32_t)12000 << SPLIT) /* |column of X| before it is split */
-/* |column of Φ̃|: split, its hi is at most 2^13, so three products with R fit int32. */
-#define PHI_LIMIT (((int32_t)1 << 27) - ((int32_t)1 << 13))
-#define R_LIMIT 16383
+#define ROW_LIMIT (((int32_t)1 << 27) - 1) /* |rows| in int32: τ ψ̃ + e still fits */
+#define COL_LIMIT 16383 /* |column of Φ̃| as int16: three R products fit int32 */
+#define X_LIMIT 15000   /* |column of X| as int16: nine squares fit int32 */
 /* The rows' fraction bits: the inputs' (longit: v̇ Q24, ½ρv² Q18, z Q14) and 6 more. */
 static const uint8_t row_q[3] = {24 + 6, 18 + 6, 14 + 6};
 #define THETA_Q 16 /* θ's entries in FIXED */
+#define DELTA_Q 24 /* the step from the prior, in the solve's units */
 
-static uint8_t bit_length(uint64_t x)
+static uint8_t bit_length(uint32_t x)
 {
     uint8_t n = 0;
     while (x >> 8 != 0u) { /* whole bytes first: the AVR shifts a bit at a time */
@@ -225,84 +224,96 @@ static uint8_t bit_length(uint64_t x)
 
 static uint64_t magnitude(int64_t x) { return x < 0 ? (uint64_t)0 - (uint64_t)x : (uint64_t)x; }
 
-/* x · 2^up, rounded, saturated. */
+/* x · 2^up, rounded, saturated. A left shift is checked and done in int32: the AVR
+ * multiplies an int64 by a power of two with a full 64-bit product. */
 static int32_t scale_pow2(int64_t x, int16_t up, uint8_t *st)
 {
-    if (up > 0) {
-        return (x == 0 || up < 32) ? fx_sat(up < 32 ? fx_round_shift(x, (int8_t)-up) : 0, st)
-                                   : fx_sat(x > 0 ? INT64_MAX : INT64_MIN, st);
+    if (up <= 0) {
+        return up < -62 ? 0 : fx_sat(fx_round_shift(x, (int8_t)-up), st);
     }
-    return up < -62 ? 0 : fx_sat(fx_round_shift(x, (int8_t)-up), st);
+    int32_t v = fx_sat(x, st);
+    if (up > 30 || v > (INT32_MAX >> up) || v < (INT32_MIN >> up)) {
+        return v == 0 ? 0 : fx_sat(v > 0 ? INT64_MAX : INT64_MIN, st);
+    }
+    return v * ((int32_t)1 << up);
 }
 
-/* in[0..n) scaled by 2^-k to the most bits that keep |out| <= limit (rounded half up);
- * returns k (0 for a column of zeros). */
-static int8_t normalize(const int64_t *in, int32_t *out, uint8_t n, int32_t limit)
+/* The shift k that brings a peak of that many bits to the most bits <= limit. */
+static int8_t fit(uint8_t peak_bits, int32_t limit)
+{
+    return (int8_t)(peak_bits - bit_length((uint32_t)limit));
+}
+
+/* in[0..n) · 2^-k (rounded half up) with |out| <= limit and as many bits as that
+ * allows; returns k (0 for zeros). int32: the AVR's int64 shifts cost a call each. */
+static int8_t normalize(const int32_t *in, int32_t *out, uint8_t n, int32_t limit)
+{
+    uint32_t peak = 0;
+    for (uint8_t i = 0; i < n; i++) {
+        uint32_t mag = in[i] < 0 ? (uint32_t)0 - (uint32_t)in[i] : (uint32_t)in[i];
+        peak = mag > peak ? mag : peak;
+    }
+    int8_t k = peak != 0u ? fit(bit_length(peak), limit) : 0;
+    if (k > 0 && ((peak >> (k - 1)) + 1u) >> 1 > (uint32_t)limit) {
+        k++; /* rounding up would pass the limit */
+    }
+    for (uint8_t i = 0; i < n; i++) {
+        out[i] = k > 0 ? ((in[i] >> (k - 1)) + 1) >> 1 : in[i] * ((int32_t)1 << -k);
+    }
+    return k;
+}
+
+/* The same from int64 (the window's exact rows, the residual). */
+static int8_t normalize64(const int64_t *in, int32_t *out, uint8_t n, int32_t limit)
 {
     uint64_t peak = 0;
     for (uint8_t i = 0; i < n; i++) {
         uint64_t mag = magnitude(in[i]);
         peak = mag > peak ? mag : peak;
     }
-    if (peak == 0u) {
-        memset(out, 0, n * sizeof *out);
-        return 0;
-    }
-    int8_t k = (int8_t)(bit_length(peak) - bit_length((uint64_t)limit));
-    if (fx_round_shift((int64_t)peak, k) > limit) {
+    uint32_t top = (uint32_t)(peak >> 32);
+    int8_t k = peak == 0u ? 0
+                          : fit(top != 0u ? (uint8_t)(32u + bit_length(top))
+                                          : bit_length((uint32_t)peak),
+                                limit);
+    if (k > 0 && ((peak >> (k - 1)) + 1u) >> 1 > (uint64_t)limit) {
         k++;
     }
     int64_t half = k > 0 ? (int64_t)1 << (k - 1) : 0;
     for (uint8_t i = 0; i < n; i++) {
-        out[i] = (int32_t)(k > 0 ? (in[i] + half) >> k : in[i] * ((int64_t)1 << -k));
+        out[i] = k > 0 ? (int32_t)((in[i] + half) >> k) : (int32_t)in[i] * ((int32_t)1 << -k);
     }
     return k;
 }
 
-static void split(const int32_t *w, stlqf_split_t *x)
+/* x = R col as int16 (X_LIMIT); returns x's exponent relative to col's (R at its own
+ * scale, the same for every column, which cancels in the solve). */
+static int8_t weigh(const int16_t band[STLQF_ROWS][3], const int32_t *col, int16_t *x)
 {
+    int32_t c[STLQF_ROWS], wide[STLQF_ROWS];
+    int8_t e = normalize(col, c, STLQF_ROWS, COL_LIMIT);
     for (uint8_t i = 0; i < STLQF_ROWS; i++) {
-        int32_t hi = (w[i] + ((int32_t)1 << (SPLIT - 1))) >> SPLIT;
-        x->hi[i] = (int16_t)hi;
-        x->lo[i] = (int16_t)(w[i] - hi * ((int32_t)1 << SPLIT));
-    }
-}
-
-/* x = R col, split; returns x's exponent relative to col's (R at its own scale, the
- * same for every column, which cancels in the solve). */
-static int8_t weigh(const int16_t band[STLQF_ROWS][3], const int64_t *col, stlqf_split_t *x)
-{
-    int32_t w[STLQF_ROWS];
-    int64_t wide[STLQF_ROWS];
-    stlqf_split_t c;
-    int8_t e = normalize(col, w, STLQF_ROWS, PHI_LIMIT);
-    split(w, &c);
-    for (uint8_t i = 0; i < STLQF_ROWS; i++) {
-        int32_t hi = 0, lo = 0;
+        int32_t acc = 0;
         for (uint8_t d = 0; d < 3u && i + d < STLQF_ROWS; d++) {
-            hi += (int32_t)band[i][d] * c.hi[i + d];
-            lo += (int32_t)band[i][d] * c.lo[i + d];
+            acc += (int32_t)band[i][d] * (int16_t)c[i + d];
         }
-        wide[i] = (int64_t)hi * ((int32_t)1 << SPLIT) + lo;
+        wide[i] = acc;
     }
-    e = (int8_t)(e + normalize(wide, w, STLQF_ROWS, WIDE_LIMIT));
-    split(w, x);
+    e = (int8_t)(e + normalize(wide, c, STLQF_ROWS, X_LIMIT));
+    for (uint8_t i = 0; i < STLQF_ROWS; i++) {
+        x[i] = (int16_t)c[i];
+    }
     return e;
 }
 
-/* Σ a_i b_i · 2^-14, the lo·lo terms (2^-28 of it) left out. */
-static int64_t dot_split(const stlqf_split_t *a, const stlqf_split_t *b)
+static int32_t dot_q(const int16_t *a, const int16_t *b)
 {
-    int32_t hh = 0, cross = 0; /* 9 · 12000² and 18 · 12000 · 2^13 fit */
+    int32_t acc = 0; /* nine products of at most X_LIMIT² fit */
     for (uint8_t i = 0; i < STLQF_ROWS; i++) {
-        hh += (int32_t)a->hi[i] * b->hi[i];
-        cross += (int32_t)a->hi[i] * b->lo[i] + (int32_t)a->lo[i] * b->hi[i];
+        acc += (int32_t)a[i] * b[i];
     }
-    return (int64_t)hh * ((int32_t)1 << SPLIT) + cross;
+    return acc;
 }
-
-/* A Gram sum (dot_split) as the solve's Q30: Σ x_a x_b / 2^59, below 0.61. */
-static int32_t gram_q30(int64_t t) { return (int32_t)fx_round_shift(t, 15); }
 
 static uint8_t configure_q(stlqf_q_t *q, const uint8_t *params, const int32_t band[STLQF_ROWS][3])
 {
@@ -316,27 +327,26 @@ static uint8_t configure_q(stlqf_q_t *q, const uint8_t *params, const int32_t ba
     }
     q->mu = param_q(params, P_MU);
     q->log2_cond_flag = fx_log2_q24(param_q(params, P_COND), 0);
-    int64_t wide[STLQF_ROWS * 3];
-    int32_t narrow[STLQF_ROWS * 3];
+    int32_t flat[STLQF_ROWS * 3];
+    memcpy(flat, band, sizeof flat);
+    normalize(flat, flat, STLQF_ROWS * 3u, COL_LIMIT);
     for (uint8_t i = 0; i < STLQF_ROWS * 3u; i++) {
-        wide[i] = band[i / 3u][i % 3u];
-    }
-    normalize(wide, narrow, STLQF_ROWS * 3u, R_LIMIT);
-    for (uint8_t i = 0; i < STLQF_ROWS * 3u; i++) {
-        q->band[i / 3u][i % 3u] = (int16_t)narrow[i];
+        q->band[i / 3u][i % 3u] = (int16_t)flat[i];
     }
     /* g/cos ε's filtered columns, exact: (τ + χ1/T) g' and g', in Q42. */
     int64_t col[2][STLQF_ROWS];
+    int32_t narrow[STLQF_ROWS];
     for (uint8_t j = 0; j < STLQF_ROWS; j++) {
         col[0][j] = ((int64_t)tau(j) * 65536 + q->c1) * q->shared.g_cos;
         col[1][j] = (int64_t)q->shared.g_cos * 65536;
     }
     for (uint8_t c = 0; c < 2u; c++) {
-        q->e_g[c] = (int8_t)(weigh(q->band, col[c], &q->x_g[c]) - 42);
+        int8_t k = normalize64(col[c], narrow, STLQF_ROWS, ROW_LIMIT);
+        q->e_g[c] = (int8_t)(k + weigh(q->band, narrow, q->x_g[c]) - 42);
     }
-    q->g_gg[0] = gram_q30(dot_split(&q->x_g[0], &q->x_g[0]));
-    q->g_gg[1] = gram_q30(dot_split(&q->x_g[1], &q->x_g[0]));
-    q->g_gg[2] = gram_q30(dot_split(&q->x_g[1], &q->x_g[1]));
+    q->g_gg[0] = dot_q(q->x_g[0], q->x_g[0]);
+    q->g_gg[1] = dot_q(q->x_g[1], q->x_g[0]);
+    q->g_gg[2] = dot_q(q->x_g[1], q->x_g[1]);
     return 0;
 }
 
@@ -357,84 +367,92 @@ static void filter_q(const stlqf_q_t *q, const int32_t *x, const int32_t h[2][3]
     }
 }
 
-/* solve_f32's system with X's columns in block floating point, x_a 2^E_a. In y_a =
- * θ_a 2^(E_a - S) it reads G y = U (G, U the integer Gram sums; S >= ζ's exponent,
- * chosen so the prior fits), solved for the step from the prior, (G + μ diag G) δ =
- * U - G y_prior, with G / 2^59 and δ in Q30: the prior keeps all its bits where a
- * column explains little of ζ (a tiny y), and where the data say nothing δ is 0. */
+/* The window's residual against the prior, ζ - Φ̃ θ_prior (the slopes' prior is 0, so
+ * the v̇, ½ρv² and g' columns), from the rows in int32 (r, 2^e_r each channel) into
+ * out at the exponent it returns. Its terms are int64 at a common exponent chosen so
+ * each fits 2^56. */
+static int8_t residual(const stlqf_q_t *q, const int32_t r[3][2 * STLQF_ROWS], const int8_t *e_r,
+                       const int32_t *prior, int64_t *out)
+{
+    const int32_t g_row = q->shared.g_cos; /* Q26 */
+    int8_t e_term[3];
+    for (uint8_t c = 0; c < 3u; c++) {
+        e_term[c] = (int8_t)(c < 2u ? e_r[c] - THETA_Q : -26 - THETA_Q);
+    }
+    /* |θ| < 2^(bits), |row| < 2^27: a term is below 2^(bits + 27 + e_term - S). */
+    int8_t S = e_r[2];
+    for (uint8_t c = 0; c < 3u; c++) {
+        int8_t need = (int8_t)(bit_length((uint32_t)magnitude(prior[2u * c + 1u])) + 27 +
+                               e_term[c] - 56);
+        S = need > S ? need : S;
+    }
+    for (uint8_t j = 0; j < STLQF_ROWS; j++) {
+        int64_t acc = (int64_t)r[2][j] * ((int64_t)1 << (e_r[2] - S + 31)) >> 31;
+        for (uint8_t c = 0; c < 3u; c++) {
+            int64_t term = (int64_t)prior[2u * c + 1u] * (c < 2u ? r[c][j] : g_row);
+            int8_t up = (int8_t)(e_term[c] - S);
+            acc -= up >= 0 ? term * ((int64_t)1 << up) : fx_round_shift(term, (int8_t)-up);
+        }
+        out[j] = acc;
+    }
+    return S;
+}
+
+/* solve_f32's system for the step δ from the prior, with X's columns and the residual
+ * in block floating point, x_a 2^E_a: (Gi + μ diag Gi) y = Ui in y_a = δθ_a 2^(E_a -
+ * E_res), Gi, Ui the int Gram sums, as Gi / 2^31 in Q30 and y in Q24 (linalg/ldl_q).
+ * Where a column explains little of the residual its y is small, and it is a step:
+ * the prior keeps all its bits. */
 static uint8_t solve_q(stlqf_state_t *s, int32_t *log_cond)
 {
     stlqf_q_t *q = &s->u.q;
     uint8_t st = 0;
-    stlqf_split_t x[5]; /* [τ v̇, v̇, τ q, q] and ζ, as X */
-    int8_t e[6];
-    int64_t phi[STLQF_ROWS];
-    for (uint8_t c = 0; c < 5u; c++) {
-        uint8_t ch = c < 4u ? (uint8_t)(c >> 1) : 2u; /* v̇, ½ρv², z */
-        uint8_t at = c < 4u ? ch : 4u;
-        for (uint8_t j = 0; j < STLQF_ROWS; j++) {
-            const int64_t *row = s->rows.q[slot(s, j)];
-            phi[j] = (c < 4u && !(c & 1u)) ? tau(j) * row[at] + row[2u + ch] : row[at];
-        }
-        e[c < 4u ? c : 4u] = (int8_t)(weigh(q->band, phi, &x[c]) - row_q[ch]);
-    }
-    int8_t e_z = e[4];
-    e[4] = q->e_g[0];
-    e[5] = q->e_g[1];
-    const stlqf_split_t *col[6] = {&x[0], &x[1], &x[2], &x[3], &q->x_g[0], &q->x_g[1]};
-    int32_t g[36];
-    for (uint8_t a = 0; a < 6u; a++) {
-        for (uint8_t b = 0; b <= a && b < 4u; b++) {
-            g[a * 6u + b] = g[b * 6u + a] = gram_q30(dot_split(col[a], col[b]));
-        }
-    }
-    g[4 * 6 + 4] = q->g_gg[0];
-    g[5 * 6 + 4] = g[4 * 6 + 5] = q->g_gg[1];
-    g[5 * 6 + 5] = q->g_gg[2];
-    /* S: ζ's exponent, or larger where a prior value would pass |y| = 64. */
     int32_t prior[6];
-    int16_t S = INT8_MIN;
-    for (uint8_t i = 0; i < STLQF_ROWS && S == INT8_MIN; i++) {
-        S = (x[4].hi[i] | x[4].lo[i]) != 0 ? e_z : INT8_MIN;
-    }
     for (uint8_t a = 0; a < 6u; a++) {
         prior[a] = (a & 1u) ? fx_add(q->theta[a], q->theta[a - 1u], &st) : 0;
-        if (g[a * 6u + a] != 0 && prior[a] != 0) {
-            int16_t need = (int16_t)(bit_length(magnitude(prior[a])) + e[a] - THETA_Q - 6);
-            S = need > S ? need : S;
-        }
     }
-    S = S == INT8_MIN ? 0 : S;
-    /* U - G y_prior in Q30, summed in int64 (U and G y_prior pass Q30's range where
-     * their difference does not); y_prior with 30 significant bits, in Q(30 + extra). */
-    int64_t acc[6];
+    /* The rows in int32, one exponent per channel: v̇'s ψ̃ and e, ½ρv²'s, ζ. */
+    int32_t r[3][2 * STLQF_ROWS];
+    int8_t e_r[3];
+    for (uint8_t ch = 0; ch < 3u; ch++) {
+        int64_t wide[2 * STLQF_ROWS];
+        for (uint8_t j = 0; j < STLQF_ROWS; j++) {
+            const int64_t *row = s->rows.q[slot(s, j)];
+            wide[j] = row[ch < 2u ? ch : 4u];
+            wide[STLQF_ROWS + j] = ch < 2u ? row[2u + ch] : 0;
+        }
+        e_r[ch] = (int8_t)(normalize64(wide, r[ch], 2u * STLQF_ROWS, ROW_LIMIT) - row_q[ch]);
+    }
+    int16_t x[5][STLQF_ROWS]; /* [τ v̇, v̇, τ q, q] and the residual, as X */
+    int8_t e[6];
+    int32_t col[STLQF_ROWS];
+    for (uint8_t c = 0; c < 4u; c++) {
+        uint8_t ch = (uint8_t)(c >> 1);
+        for (uint8_t j = 0; j < STLQF_ROWS; j++) { /* |τ ψ̃ + e| < 6 · 2^27 */
+            col[j] = (c & 1u) ? r[ch][j] : tau(j) * r[ch][j] + r[ch][STLQF_ROWS + j];
+        }
+        e[c] = (int8_t)(e_r[ch] + weigh(q->band, col, x[c]));
+    }
+    int64_t res[STLQF_ROWS];
+    int8_t e_res = residual(q, r, e_r, prior, res);
+    e_res = (int8_t)(e_res + normalize64(res, col, STLQF_ROWS, ROW_LIMIT));
+    e_res = (int8_t)(e_res + weigh(q->band, col, x[4]));
+    e[4] = q->e_g[0];
+    e[5] = q->e_g[1];
+    const int16_t *xs[6] = {x[0], x[1], x[2], x[3], q->x_g[0], q->x_g[1]};
+    int32_t g[36], rhs[6], scale[6];
     for (uint8_t a = 0; a < 6u; a++) {
-        acc[a] = fx_round_shift(dot_split(col[a], &x[4]), (int8_t)(15 - (e_z - S)));
-    }
-    for (uint8_t b = 1; b < 6u; b += 2u) {
-        if (g[b * 6u + b] == 0 || prior[b] == 0) {
-            continue;
+        for (uint8_t b = 0; b <= a && b < 4u; b++) {
+            g[a * 6u + b] = dot_q(xs[a], xs[b]) >> 1; /* Gi / 2^31 in Q30 */
         }
-        int8_t up = (int8_t)(30 - bit_length(magnitude(prior[b])));
-        int8_t extra = (int8_t)(up - (e[b] - S - THETA_Q + 30));
-        int32_t y_prior = scale_pow2(prior[b], up, &st);
-        if (extra > 32) { /* y_prior below 2^-32: nothing it adds to U counts */
-            continue;
-        }
-        for (uint8_t a = 0; a < 6u; a++) {
-            acc[a] -= fx_round_shift((int64_t)g[a * 6u + b] * y_prior, (int8_t)(30 + extra));
-        }
+        rhs[a] = dot_q(xs[a], x[4]) >> (31 - DELTA_Q);
     }
-    int32_t rhs[6], scale[6];
-    for (uint8_t a = 0; a < 6u; a++) {
-        rhs[a] = fx_sat(acc[a], &st);
-    }
+    g[4 * 6 + 4] = q->g_gg[0] >> 1;
+    g[5 * 6 + 4] = q->g_gg[1] >> 1;
+    g[5 * 6 + 5] = q->g_gg[2] >> 1;
     for (uint8_t a = 0; a < 6u; a++) {
         int32_t *gaa = &g[a * 6u + a];
-        if (*gaa == 0) {
-            e[a] = (int8_t)(S + THETA_Q - 30); /* a column of zeros: δ is θ's integer */
-        }
-        scale[a] = *gaa > 0 ? *gaa : ((int32_t)1 << 30);
+        scale[a] = *gaa > 0 ? *gaa : ((int32_t)1 << 30); /* a column of zeros: δ = 0 */
         *gaa = fx_add(*gaa, fx_mul_shr(q->mu, scale[a], 30, &st), &st);
     }
     if (!ldl_solve_q(g, rhs, 6, &st)) {
@@ -447,7 +465,7 @@ static uint8_t solve_q(stlqf_state_t *s, int32_t *log_cond)
         int32_t pivot = fx_log2_q24(g[a * 6u + a], 30) - fx_log2_q24(scale[a], 30);
         lo = (a == 0u || pivot < lo) ? pivot : lo;
         hi = (a == 0u || pivot > hi) ? pivot : hi;
-        int32_t step = scale_pow2(rhs[a], (int16_t)(S - e[a] + THETA_Q - 30), &st);
+        int32_t step = scale_pow2(rhs[a], (int16_t)(e_res - e[a] + THETA_Q - DELTA_Q), &st);
         q->theta[a] = fx_add(prior[a], step, &st);
     }
     *log_cond = fx_mul_shr(hi - lo, 323228497 /* log10 2, Q30 */, 30, &st);

@@ -6,9 +6,11 @@
  * Cholesky with μ pulling each value towards the previous window's and each slope
  * towards zero (host: estimators/stlqf.py).
  *
- * FIXED keeps the window's filtered rows exact in int64, takes each column of X in 28 bits
- * (two int16) with an exponent of its own (block floating point), so the Gram sums are
- * int16 products; scales the system by powers of two and solves it by LDLᵀ in Q30
+ * FIXED keeps the window's filtered rows exact in int64 and solves for the step from
+ * the prior: the window's residual against the last estimate is formed from the rows
+ * (where m v̇ cancels most of ζ), then every column of X and the residual is an int16
+ * with an exponent of its own (block floating point), so the Gram sums are exact
+ * int16 products; the system is scaled by powers of two and solved by LDLᵀ in Q30
  * (linalg/ldl_q). Its inputs must keep longit's FIXED bounds, and χ2/T² < 2^20.
  *
  * Inputs  v [m/s] Q24, v̇ [m/s²] Q24, z [N] Q14.  Outputs m̂ [kg] Q16, Ĉ_dA_f [m²] Q16,
@@ -36,19 +38,13 @@ typedef struct {
     float theta[6];            /* [slope, value at the centre] per parameter */
 } stlqf_f32_t;
 
-/* A column of X in FIXED: hi · 2^14 + lo, |hi| <= 12000, |lo| <= 2^13 (28 bits in two
- * int16, so its Gram sums are int16 products in int32), times 2^(an exponent). */
-typedef struct {
-    int16_t hi[STLQF_ROWS], lo[STLQF_ROWS];
-} stlqf_split_t;
-
 typedef struct {
     int32_t c1, c2;             /* χ1/T Q16, χ2/T² Q6 */
     int32_t mu, log2_cond_flag; /* Q30, Q24 */
     int16_t band[STLQF_ROWS][3]; /* R scaled to |R_ij| < 2^14 */
-    stlqf_split_t x_g[2];        /* X's g/cos ε columns */
+    int16_t x_g[2][STLQF_ROWS];  /* X's g/cos ε columns */
     int8_t e_g[2];               /* their exponents */
-    int32_t g_gg[3];             /* their Gram entries as the solve takes them (Q30) */
+    int32_t g_gg[3];             /* their Gram sums */
     int32_t theta[6];            /* Q16 */
     longit_q_t shared;
 } stlqf_q_t;
