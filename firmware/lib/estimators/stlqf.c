@@ -5,7 +5,7 @@
 
 #include "fixmath/fixmath.h"
 #include "linalg/chol_f32.h"
-#include "linalg/ldl_q.h"
+#include "linalg/chol_q15.h"
 #include "proto/wire.h"
 
 enum { P_CHI1, P_CHI2, P_A11, P_A12, P_A13, P_A22, P_A23, P_A33, P_MU, P_COND, N_OWN };
@@ -257,8 +257,21 @@ static int8_t normalize(const int32_t *in, int32_t *out, uint8_t n, int32_t limi
     if (k > 0 && ((peak >> (k - 1)) + 1u) >> 1 > (uint32_t)limit) {
         k++; /* rounding up would pass the limit */
     }
+    if (k <= 0) {
+        for (uint8_t i = 0; i < n; i++) {
+            out[i] = in[i] * ((int32_t)1 << -k);
+        }
+        return k;
+    }
+    /* Whole bytes by moving them, the rest bit by bit (|in| < 2^30: + half fits). */
+    int32_t half = (int32_t)1 << (k - 1);
+    uint8_t bytes = (uint8_t)(k >> 3), bits = (uint8_t)(k & 7);
     for (uint8_t i = 0; i < n; i++) {
-        out[i] = k > 0 ? ((in[i] >> (k - 1)) + 1) >> 1 : in[i] * ((int32_t)1 << -k);
+        int32_t v = in[i] + half;
+        for (uint8_t b = 0; b < bytes; b++) {
+            v >>= 8;
+        }
+        out[i] = v >> bits;
     }
     return k;
 }
@@ -367,6 +380,17 @@ static void filter_q(const stlqf_q_t *q, const int32_t *x, const int32_t h[2][3]
     }
 }
 
+/* x · 2^up, rounded (half up) when up < 0: by shifts, since an int64 times a power of
+ * two is a full 64-bit product on the AVR. The callers keep x 2^up within int64; GCC
+ * (both builds) shifts a negative int64 arithmetically and wraps the unsigned cast. */
+static int64_t shift_up(int64_t x, int8_t up)
+{
+    if (up >= 0) {
+        return (int64_t)((uint64_t)x << up);
+    }
+    return up < -62 ? 0 : (x + ((int64_t)1 << (-up - 1))) >> -up;
+}
+
 /* The window's residual against the prior, ζ - Φ̃ θ_prior (the slopes' prior is 0, so
  * the v̇, ½ρv² and g' columns), from the rows in int32 (r, 2^e_r each channel) into
  * out at the exponent it returns. Its terms are int64 at a common exponent chosen so
@@ -387,11 +411,10 @@ static int8_t residual(const stlqf_q_t *q, const int32_t r[3][2 * STLQF_ROWS], c
         S = need > S ? need : S;
     }
     for (uint8_t j = 0; j < STLQF_ROWS; j++) {
-        int64_t acc = (int64_t)r[2][j] * ((int64_t)1 << (e_r[2] - S + 31)) >> 31;
+        int64_t acc = shift_up(r[2][j], (int8_t)(e_r[2] - S));
         for (uint8_t c = 0; c < 3u; c++) {
             int64_t term = (int64_t)prior[2u * c + 1u] * (c < 2u ? r[c][j] : g_row);
-            int8_t up = (int8_t)(e_term[c] - S);
-            acc -= up >= 0 ? term * ((int64_t)1 << up) : fx_round_shift(term, (int8_t)-up);
+            acc -= shift_up(term, (int8_t)(e_term[c] - S));
         }
         out[j] = acc;
     }
@@ -400,7 +423,7 @@ static int8_t residual(const stlqf_q_t *q, const int32_t r[3][2 * STLQF_ROWS], c
 
 /* solve_f32's system for the step δ from the prior, with X's columns and the residual
  * in block floating point, x_a 2^E_a: (Gi + μ diag Gi) y = Ui in y_a = δθ_a 2^(E_a -
- * E_res), Gi, Ui the int Gram sums, as Gi / 2^31 in Q30 and y in Q24 (linalg/ldl_q).
+ * E_res), Gi, Ui the int Gram sums, as Gi / 2^32 in Q30 and y in Q24 (linalg/chol_q15).
  * Where a column explains little of the residual its y is small, and it is a step:
  * the prior keeps all its bits. */
 static uint8_t solve_q(stlqf_state_t *s, int32_t *log_cond)
@@ -419,9 +442,10 @@ static uint8_t solve_q(stlqf_state_t *s, int32_t *log_cond)
         for (uint8_t j = 0; j < STLQF_ROWS; j++) {
             const int64_t *row = s->rows.q[slot(s, j)];
             wide[j] = row[ch < 2u ? ch : 4u];
-            wide[STLQF_ROWS + j] = ch < 2u ? row[2u + ch] : 0;
+            wide[STLQF_ROWS + j] = row[2u + (ch & 1u)]; /* e (none for ζ) */
         }
-        e_r[ch] = (int8_t)(normalize64(wide, r[ch], 2u * STLQF_ROWS, ROW_LIMIT) - row_q[ch]);
+        uint8_t n = ch < 2u ? 2u * STLQF_ROWS : STLQF_ROWS;
+        e_r[ch] = (int8_t)(normalize64(wide, r[ch], n, ROW_LIMIT) - row_q[ch]);
     }
     int16_t x[5][STLQF_ROWS]; /* [τ v̇, v̇, τ q, q] and the residual, as X */
     int8_t e[6];
@@ -443,26 +467,27 @@ static uint8_t solve_q(stlqf_state_t *s, int32_t *log_cond)
     int32_t g[36], rhs[6], scale[6];
     for (uint8_t a = 0; a < 6u; a++) {
         for (uint8_t b = 0; b <= a && b < 4u; b++) {
-            g[a * 6u + b] = dot_q(xs[a], xs[b]) >> 1; /* Gi / 2^31 in Q30 */
+            g[a * 6u + b] = dot_q(xs[a], xs[b]) >> 2; /* Gi / 2^32 in Q30: diagonal < 1/2 */
         }
-        rhs[a] = dot_q(xs[a], x[4]) >> (31 - DELTA_Q);
+        rhs[a] = dot_q(xs[a], x[4]) >> (32 - DELTA_Q);
     }
-    g[4 * 6 + 4] = q->g_gg[0] >> 1;
-    g[5 * 6 + 4] = q->g_gg[1] >> 1;
-    g[5 * 6 + 5] = q->g_gg[2] >> 1;
+    g[4 * 6 + 4] = q->g_gg[0] >> 2;
+    g[5 * 6 + 4] = q->g_gg[1] >> 2;
+    g[5 * 6 + 5] = q->g_gg[2] >> 2;
     for (uint8_t a = 0; a < 6u; a++) {
         int32_t *gaa = &g[a * 6u + a];
-        scale[a] = *gaa > 0 ? *gaa : ((int32_t)1 << 30); /* a column of zeros: δ = 0 */
-        *gaa = fx_add(*gaa, fx_mul_shr(q->mu, scale[a], 30, &st), &st);
+        scale[a] = *gaa > 0 ? *gaa : ((int32_t)1 << 28); /* a column of zeros: δ = 0 */
+        *gaa = fx_add(*gaa, fx_mul_shr(q->mu, scale[a], 30, &st), &st); /* μ <= 1: < 1 */
     }
-    if (!ldl_solve_q(g, rhs, 6, &st)) {
+    int16_t l[36];
+    if (!chol_solve_q15(g, rhs, 6, l, &st)) {
         *log_cond = INT32_MAX;
         return (uint8_t)(st | STATUS_SINGULAR);
     }
-    /* The condition estimate of the Jacobi-scaled matrix: its pivots are D_a / G_aa. */
+    /* The condition estimate of the Jacobi-scaled matrix: its pivots are L_aa² / G_aa. */
     int32_t lo = 0, hi = 0;
     for (uint8_t a = 0; a < 6u; a++) {
-        int32_t pivot = fx_log2_q24(g[a * 6u + a], 30) - fx_log2_q24(scale[a], 30);
+        int32_t pivot = 2 * fx_log2_q24(l[a * 7u], 15) - fx_log2_q24(scale[a], 30);
         lo = (a == 0u || pivot < lo) ? pivot : lo;
         hi = (a == 0u || pivot > hi) ? pivot : hi;
         int32_t step = scale_pow2(rhs[a], (int16_t)(e_res - e[a] + THETA_Q - DELTA_Q), &st);

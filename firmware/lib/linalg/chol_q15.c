@@ -1,0 +1,73 @@
+#include "linalg/chol_q15.h"
+
+#include "fixmath/fixmath.h"
+
+/* floor(sqrt(x)), bit by bit. */
+static uint16_t isqrt(uint32_t x)
+{
+    uint32_t root = 0, bit = (uint32_t)1 << 30;
+    while (bit > x) {
+        bit >>= 2;
+    }
+    while (bit != 0u) {
+        if (x >= root + bit) {
+            x -= root + bit;
+            root = (root >> 1) + bit;
+        } else {
+            root >>= 1;
+        }
+        bit >>= 2;
+    }
+    return (uint16_t)root;
+}
+
+static int16_t to_q15(int32_t x, uint8_t *status)
+{
+    if (x > INT16_MAX || x < -INT16_MAX) {
+        *status |= STATUS_SATURATED;
+        return x > 0 ? INT16_MAX : -INT16_MAX;
+    }
+    return (int16_t)x;
+}
+
+/* (x - Σ l[k] y[k stride] 2^-15) / l_ii for k < n: one substitution row. */
+static int32_t substitute(int32_t x, const int16_t *l, const int32_t *y, uint8_t stride_l,
+                          uint8_t n, int32_t inv, uint8_t *status)
+{
+    int64_t acc = 0;
+    for (uint8_t k = 0; k < n; k++) {
+        acc += (int64_t)l[k * stride_l] * y[k];
+    }
+    int32_t s = fx_sat((((int64_t)x << 15) - acc + ((int64_t)1 << 14)) >> 15, status);
+    return fx_mul_shr(s, inv, 16, status); /* 1 / l_ii in Q16 */
+}
+
+uint8_t chol_solve_q15(const int32_t *a, int32_t *b, uint8_t n, int16_t *l, uint8_t *status)
+{
+    int32_t inv[CHOL_Q15_MAX_N]; /* 1 / l_jj, Q16 */
+    for (uint8_t j = 0; j < n; j++) {
+        for (uint8_t i = j; i < n; i++) {
+            int32_t s = a[i * n + j]; /* Q30; the sums stay below sqrt(a_ii a_jj) < 1 */
+            for (uint8_t k = 0; k < j; k++) {
+                s -= (int32_t)l[i * n + k] * l[j * n + k];
+            }
+            if (i == j) {
+                if (s < ((int32_t)1 << 10)) {
+                    return 0;
+                }
+                l[j * n + j] = (int16_t)isqrt((uint32_t)s);
+                inv[j] = (int32_t)(((uint32_t)1 << 31) / (uint32_t)l[j * n + j]);
+            } else {
+                l[i * n + j] = to_q15(fx_mul_shr(s, inv[j], 31, status), status);
+            }
+        }
+    }
+    for (uint8_t i = 0; i < n; i++) { /* L y = b */
+        b[i] = substitute(b[i], l + i * n, b, 1, i, inv[i], status);
+    }
+    for (uint8_t i = n; i-- > 0u;) { /* Lᵀ x = y */
+        uint8_t next = (uint8_t)(i + 1u);
+        b[i] = substitute(b[i], l + next * n + i, b + next, n, (uint8_t)(n - next), inv[i], status);
+    }
+    return 1;
+}
