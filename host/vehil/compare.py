@@ -53,7 +53,7 @@ def evaluate(s: Series) -> dict[str, Any]:
         tol = s.tolerances.get(name, Tolerance())
         b, r = s.board[:, j], s.reference[:, j]
         vs_ref = _err_stats(b - r)
-        over = np.abs(b - r) > tol.abs + tol.rel * np.abs(r)
+        over = (np.abs(b - r) > tol.abs + tol.rel * np.abs(r)) & (s.t[:n] >= tol.from_s)
         checked = name in s.tolerances
         vs_ref["outside_tolerance"] = int(over.sum())
         vs_ref["pass"] = (not checked) or not over.any()

@@ -31,7 +31,7 @@ def summary_table(figures: dict[str, Any], title: str) -> Table:
     for name, o in figures["outputs"].items():
         unit = o["unit"]
         tol = o["tolerance"]
-        tol_s = "-" if tol is None else f"{tol['abs']:g} + {tol['rel']:g}·|ref|"
+        tol_s = "-" if tol is None else _tolerance(tol, "|ref|")
         ref = o["reference"]
         truth = o.get("truth")
         truth_s = "-" if truth is None else f"{_g(truth['rmse'])} / {_g(truth['reference_rmse'])}"
@@ -68,9 +68,14 @@ def _stack(figures: dict[str, Any]) -> str:
     return "" if b is None else f"; stack high-water {b:,} B since boot"
 
 
+def _tolerance(tol: dict[str, Any], ref: str) -> str:
+    since = f" from {tol['from_s']:g} s" if tol.get("from_s") else ""
+    return f"{tol['abs']:g} + {tol['rel']:g}·{ref}{since}"
+
+
 def _row_cells(o: dict[str, Any]) -> list[str]:
     tol, ref, truth = o["tolerance"], o["reference"], o.get("truth")
-    tol_s = "-" if tol is None else f"{tol['abs']:g} + {tol['rel']:g}·abs(ref)"
+    tol_s = "-" if tol is None else _tolerance(tol, "abs(ref)")
     truth_s = "-" if truth is None else f"{_g(truth['rmse'])} / {_g(truth['reference_rmse'])}"
     verdict = "pass" if ref["pass"] else "FAIL"
     return [tol_s, _g(ref["rmse"]), _g(ref["max_abs"]), verdict, truth_s]

@@ -28,10 +28,12 @@ class ScenarioError(VehilError):
 
 @dataclass(frozen=True)
 class Tolerance:
-    """Board vs float64 reference: |board - ref| <= abs + rel * |ref| at every sample."""
+    """Board vs float64 reference: |board - ref| <= abs + rel * |ref| at every sample from
+    time `from_s` on (before it an output may be unobservable, and its digits noise)."""
 
     abs: float = 0.0
     rel: float = 0.0
+    from_s: float = 0.0
     bit_exact: bool = False  # FIXED: the board's bits equal the native build's
     truth_rms: float | None = None  # RMS error vs truth must stay below this
 
@@ -217,13 +219,14 @@ def parse(data: dict[str, Any], where: str, path: Path | None = None) -> Scenari
         if name not in outputs:
             raise tol_t.fail(name, f"no output of that name; {spec.name} has {', '.join(outputs)}")
         t = tol_t.sub(name)
-        t.only("abs", "rel", "bit_exact", "truth_rms")
+        t.only("abs", "rel", "from_s", "bit_exact", "truth_rms")
         bit_exact = t.table.get("bit_exact", False)
         if not isinstance(bit_exact, bool):
             raise t.fail("bit_exact", f"must be true or false, got {bit_exact!r}")
         tolerances[name] = Tolerance(
             abs=t.number("abs", 0.0, lo=0.0),
             rel=t.number("rel", 0.0, lo=0.0),
+            from_s=t.number("from_s", 0.0, lo=0.0),
             bit_exact=bit_exact,
             truth_rms=t.number("truth_rms", lo=0.0) if "truth_rms" in t.table else None,
         )

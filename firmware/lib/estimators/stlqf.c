@@ -364,9 +364,13 @@ static uint8_t configure_q(stlqf_q_t *q, const uint8_t *params, const int32_t ba
 }
 
 /* filter_f32 in integers, exact but for χ1/T's product (rounded at 6 fraction bits
- * past the input's): the inputs' bounds and χ2/T² < 2^20 keep every sum in int64. */
-static void filter_q(const stlqf_q_t *q, const int32_t *x, const int32_t h[2][3], int64_t *row)
+ * past the input's): the inputs' bounds and χ2/T² < 2^20 keep every sum in int64.
+ * Stored as mantissas with an exponent per input, so a window's columns are aligned
+ * in int32 (the AVR handles int64 a call at a time). */
+static void filter_q(const stlqf_q_t *q, const int32_t *x, const int32_t h[2][3],
+                     int32_t *m, int8_t *k)
 {
+    int64_t row[STLQF_COLS];
     for (uint8_t c = 0; c < 3u; c++) {
         int32_t d1 = x[c] - h[0][c], d0 = h[0][c] - h[1][c]; /* the bounds keep these */
         int64_t f = (int64_t)x[c] * 64 + fx_round_shift((int64_t)q->c1 * d1, 10) +
@@ -378,6 +382,30 @@ static void filter_q(const stlqf_q_t *q, const int32_t *x, const int32_t h[2][3]
             row[4] = f;
         }
     }
+    for (uint8_t c = 0; c < 2u; c++) {
+        const int64_t pair[2] = {row[c], row[2u + c]};
+        int32_t out[2];
+        k[c] = normalize64(pair, out, 2, ROW_LIMIT);
+        m[c] = out[0];
+        m[2u + c] = out[1];
+    }
+    k[2] = normalize64(&row[4], &m[4], 1, ROW_LIMIT);
+}
+
+/* v 2^-down, rounded half up, by whole bytes and then bits (|v| < 2^30). */
+static int32_t shift_down(int32_t v, uint8_t down)
+{
+    if (down == 0u) {
+        return v;
+    }
+    if (down > 30u) {
+        return 0;
+    }
+    v += (int32_t)1 << (down - 1u);
+    for (; down >= 8u; down -= 8u) {
+        v >>= 8;
+    }
+    return v >> down;
 }
 
 /* x · 2^up, rounded (half up) when up < 0: by shifts, since an int64 times a power of
@@ -385,7 +413,10 @@ static void filter_q(const stlqf_q_t *q, const int32_t *x, const int32_t h[2][3]
  * (both builds) shifts a negative int64 arithmetically and wraps the unsigned cast. */
 static int64_t shift_up(int64_t x, int8_t up)
 {
-    if (up >= 0) {
+    if (up == 0) {
+        return x;
+    }
+    if (up > 0) {
         return (int64_t)((uint64_t)x << up);
     }
     return up < -62 ? 0 : (x + ((int64_t)1 << (-up - 1))) >> -up;
@@ -410,11 +441,12 @@ static int8_t residual(const stlqf_q_t *q, const int32_t r[3][2 * STLQF_ROWS], c
                                e_term[c] - 56);
         S = need > S ? need : S;
     }
+    /* g' is the same in every row: its term once. */
+    int64_t g_term = shift_up((int64_t)prior[5] * g_row, (int8_t)(e_term[2] - S));
     for (uint8_t j = 0; j < STLQF_ROWS; j++) {
-        int64_t acc = shift_up(r[2][j], (int8_t)(e_r[2] - S));
-        for (uint8_t c = 0; c < 3u; c++) {
-            int64_t term = (int64_t)prior[2u * c + 1u] * (c < 2u ? r[c][j] : g_row);
-            acc -= shift_up(term, (int8_t)(e_term[c] - S));
+        int64_t acc = shift_up(r[2][j], (int8_t)(e_r[2] - S)) - g_term;
+        for (uint8_t c = 0; c < 2u; c++) {
+            acc -= shift_up((int64_t)prior[2u * c + 1u] * r[c][j], (int8_t)(e_term[c] - S));
         }
         out[j] = acc;
     }
@@ -434,18 +466,23 @@ static uint8_t solve_q(stlqf_state_t *s, int32_t *log_cond)
     for (uint8_t a = 0; a < 6u; a++) {
         prior[a] = (a & 1u) ? fx_add(q->theta[a], q->theta[a - 1u], &st) : 0;
     }
-    /* The rows in int32, one exponent per channel: v̇'s ψ̃ and e, ½ρv²'s, ζ. */
+    /* The rows in int32, one exponent per channel (the largest row's): v̇'s ψ̃ and e,
+     * ½ρv²'s, ζ. */
     int32_t r[3][2 * STLQF_ROWS];
     int8_t e_r[3];
     for (uint8_t ch = 0; ch < 3u; ch++) {
-        int64_t wide[2 * STLQF_ROWS];
+        int8_t top = INT8_MIN;
         for (uint8_t j = 0; j < STLQF_ROWS; j++) {
-            const int64_t *row = s->rows.q[slot(s, j)];
-            wide[j] = row[ch < 2u ? ch : 4u];
-            wide[STLQF_ROWS + j] = row[2u + (ch & 1u)]; /* e (none for ζ) */
+            int8_t k = s->rows.q[j].k[ch];
+            top = k > top ? k : top;
         }
-        uint8_t n = ch < 2u ? 2u * STLQF_ROWS : STLQF_ROWS;
-        e_r[ch] = (int8_t)(normalize64(wide, r[ch], n, ROW_LIMIT) - row_q[ch]);
+        for (uint8_t j = 0; j < STLQF_ROWS; j++) {
+            const int32_t *m = s->rows.q[slot(s, j)].m;
+            uint8_t down = (uint8_t)(top - s->rows.q[slot(s, j)].k[ch]);
+            r[ch][j] = shift_down(m[ch < 2u ? ch : 4u], down);
+            r[ch][STLQF_ROWS + j] = ch < 2u ? shift_down(m[2u + ch], down) : 0;
+        }
+        e_r[ch] = (int8_t)(top - row_q[ch]);
     }
     int16_t x[5][STLQF_ROWS]; /* [τ v̇, v̇, τ q, q] and the residual, as X */
     int8_t e[6];
@@ -564,7 +601,8 @@ static void push(stlqf_state_t *s, const void *x)
         if (s->mode == MODE_F32) {
             filter_f32(&s->u.f32, x, (const float(*)[3])s->hist.f, s->rows.f[s->head]);
         } else {
-            filter_q(&s->u.q, x, (const int32_t(*)[3])s->hist.q, s->rows.q[s->head]);
+            filter_q(&s->u.q, x, (const int32_t(*)[3])s->hist.q, s->rows.q[s->head].m,
+                     s->rows.q[s->head].k);
         }
         s->head = slot(s, 1);
         if (s->n_rows < STLQF_ROWS) {

@@ -6,7 +6,8 @@
  * Cholesky with μ pulling each value towards the previous window's and each slope
  * towards zero (host: estimators/stlqf.py).
  *
- * FIXED keeps the window's filtered rows exact in int64 and solves for the step from
+ * FIXED computes each filtered row exactly in int64 and keeps it as int32 mantissas
+ * with an exponent per input (block floating point), and solves for the step from
  * the prior: the window's residual against the last estimate is formed from the rows
  * (where m v̇ cancels most of ζ), then every column of X and the residual is an int16
  * with an exponent of its own (block floating point), so the Gram sums are exact
@@ -61,7 +62,10 @@ typedef struct {
     } hist; /* v̇, ½ρv², z of the last two samples, newest first */
     union {
         float f[STLQF_ROWS][STLQF_COLS];
-        int64_t q[STLQF_ROWS][STLQF_COLS]; /* exact: the inputs' Q + 6 fraction bits */
+        struct {
+            int32_t m[STLQF_COLS]; /* mantissas, |m| < 2^27 */
+            int8_t k[3]; /* m 2^k is the exact row at the inputs' Q + 6: v̇'s, ½ρv²'s, ζ's */
+        } q[STLQF_ROWS];
     } rows; /* a ring: the oldest at head once full */
     uint8_t mode, n_hist, n_rows, head;
 } stlqf_state_t;

@@ -156,12 +156,12 @@ void fx_small_cos_sin_q30(int32_t eps, int32_t *c, int32_t *s, uint8_t *status)
 int32_t fx_asin_q30(int32_t x, uint8_t *status)
 {
     static const int32_t c[] = {1073741824, 178956971, 80530637, 47934905, 32622364};
-    int32_t x2 = fx_mul(x, 30, x, 30, 30, status);
+    int32_t x2 = fx_mul_shr(x, x, 30, status);
     int32_t acc = c[4];
     for (int8_t i = 3; i >= 0; i--) {
-        acc = fx_add(fx_mul(acc, 30, x2, 30, 30, status), c[i], status);
+        acc = fx_add(fx_mul_shr(acc, x2, 30, status), c[i], status);
     }
-    return fx_mul(acc, 30, x, 30, 30, status);
+    return fx_mul_shr(acc, x, 30, status);
 }
 
 /* log2(1 + k/16) in Q24, k = 0..16. */

@@ -38,7 +38,7 @@ static int32_t substitute(int32_t x, const int16_t *l, const int32_t *y, uint8_t
     for (uint8_t k = 0; k < n; k++) {
         acc += (int64_t)l[k * stride_l] * y[k];
     }
-    int32_t s = fx_sat((((int64_t)x << 15) - acc + ((int64_t)1 << 14)) >> 15, status);
+    int32_t s = fx_sat((int64_t)x - ((acc + ((int64_t)1 << 14)) >> 15), status);
     return fx_mul_shr(s, inv, 16, status); /* 1 / l_ii in Q16 */
 }
 
