@@ -11,6 +11,8 @@ from vehil.estimators import stlqf
     ("name", "output", "limit"),
     [
         ("paper-dither", "m", 0.05),
+        ("paper-dither-fixed", "m", 0.05),  # the first window's step from 1000 kg included
+        ("paper-dither-fixed", "grade", 0.5),
         ("mass-step", "m", 2.0),
         ("rls-flat-steps", "grade", 0.5),
         ("rls-flat-steps-fixed", "grade", 6.0),
@@ -35,9 +37,28 @@ def test_the_prefilter_in_c_follows_the_reference(run_scenario) -> None:  # noqa
     assert result.figures["outputs"]["m"]["reference"]["rmse"] < 5.0
 
 
-def test_fixed_point_rls_refuses_a_prefilter_naming_it(built) -> None:  # noqa: ANN001
-    spec = stlqf.RLS
-    values = spec.param_values({"prefilter_hz": 1.0})
+@pytest.mark.parametrize(
+    ("spec", "change", "named"),
+    [
+        (stlqf.RLS, {"prefilter_hz": 1.0}, "prefilter_hz"),
+        (stlqf.STLQF, {"prefilter_hz": 1.0}, "prefilter_hz"),
+        # χ2/T² = 1.1e6: past 2^20 the error filter's int64 sums could overflow.
+        (stlqf.STLQF, {"chi2": 1.1, "T": 1e-3}, "chi2"),
+    ],
+)
+def test_fixed_point_refuses_what_it_cannot_hold_naming_it(built, spec, change, named) -> None:  # noqa: ANN001
+    values = spec.param_values(change)
     with open_board("native") as link, pytest.raises(BoardError, match="BAD_PARAM") as exc:
-        link.configure("rls", "FIXED", spec.encode_params(values, "FIXED"))
-    assert exc.value.detail == [p.name for p in spec.params].index("prefilter_hz")
+        link.configure(spec.name, "FIXED", spec.encode_params(values, "FIXED"))
+    assert exc.value.detail == [p.name for p in spec.params].index(named)
+
+
+def test_fixed_point_stlqf_flags_inputs_past_its_bounds_as_clamped(built) -> None:  # noqa: ANN001
+    spec = stlqf.STLQF
+    with open_board("native") as link:
+        link.configure("stlqf", "FIXED", spec.encode_params(spec.param_values({}), "FIXED"))
+        fine, fast = link.pipeline(
+            ("SAMPLE", {"inputs": spec.encode_inputs(u, "FIXED")})
+            for u in ([10.0, 1.0, 1500.0], [90.0, 1.0, 1500.0])  # the second past 82 m/s
+        )
+    assert not fine.fields()["status"] & 0x08 and fast.fields()["status"] & 0x08

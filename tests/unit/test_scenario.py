@@ -90,3 +90,34 @@ def test_a_scenario_is_found_by_name_or_refused_with_a_hint() -> None:
     assert scenario.find("sine").name == "sine.toml"
     with pytest.raises(ScenarioError, match="vehil scenarios"):
         scenario.find("no-such-scenario")
+
+
+def test_a_tolerance_from_a_time_on_leaves_the_start_unchecked() -> None:
+    import numpy as np
+
+    from vehil import compare
+
+    data = base()
+    data["tolerance"]["y"] = {"abs": 0.1, "from_s": 0.05}
+    sc = scenario.parse(data, "x.toml")
+    assert sc.tolerances["y"].from_s == 0.05
+    n = 10
+    board, ref = np.zeros((n, 1)), np.zeros((n, 1))
+    series = compare.Series(
+        names=["y"],
+        units={"y": ""},
+        t=np.arange(n) * 0.01,
+        board=board,
+        reference=ref,
+        truth={},
+        status=np.zeros(n, dtype=np.int64),
+        cycles=np.zeros(n, dtype=np.int64),
+        rtt_s=np.zeros(n),
+        late=np.zeros(n, dtype=bool),
+        tolerances=sc.tolerances,
+    )
+    board[2, 0] = 5.0  # at 0.02 s: not checked
+    assert compare.evaluate(series)["outputs"]["y"]["reference"]["pass"]
+    board[7, 0] = 5.0  # at 0.07 s
+    verdict = compare.evaluate(series)["outputs"]["y"]["reference"]
+    assert not verdict["pass"] and verdict["outside_tolerance"] == 1

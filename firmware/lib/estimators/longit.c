@@ -145,12 +145,10 @@ void longit_outputs_q(const longit_q_t *l, int32_t m, uint8_t q_m, int32_t cda, 
     if (m > 0) {
         ratio = fx_div(m_sin, q_ms, m, q_m, 30, status);
     }
-    const int32_t half = (int32_t)1 << 29;
-    if (m <= 0 || ratio > half || ratio < -half) {
+    if (m <= 0) {
         *status |= STATUS_CLAMPED;
-        ratio = ratio > half ? half : (ratio < -half ? -half : ratio);
     }
-    int32_t grade = fx_sub(fx_asin_q30(ratio, status), l->eps, status);
+    int32_t grade = fx_sub(fx_asin_q30(ratio, status), l->eps, status); /* clamps |ratio| > 1 */
     put_i32(out, fx_rescale(m, q_m, 16, status));
     put_i32(out + 4, cda);
     put_i32(out + 8, fx_mul(grade, 30, 961263669 /* 180/π, Q24 */, 24, 20, status));

@@ -75,8 +75,7 @@ void longit_initial(const longit_t *l, float *theta);
 uint8_t longit_outputs(const longit_t *l, float m, float cda, float m_sin, uint8_t *out);
 
 /* FIXED's outputs: m̂ Q16, Ĉ_dA_f Q16 and β̂_r Q20 from m (Q q_m), C_dA_f (Q16) and
- * m sin(ε + β_r) (Q q_ms); the grade is clamped to ±30° (STATUS_CLAMPED), where the
- * asin series holds. */
+ * m sin(ε + β_r) (Q q_ms); STATUS_CLAMPED as longit_outputs. */
 void longit_outputs_q(const longit_q_t *l, int32_t m, uint8_t q_m, int32_t cda, int32_t m_sin,
                       uint8_t q_ms, uint8_t *out, uint8_t *status);
 

@@ -153,7 +153,8 @@ void fx_small_cos_sin_q30(int32_t eps, int32_t *c, int32_t *s, uint8_t *status)
     *s = fx_mul(eps, 30, s3, 30, 30, status);
 }
 
-int32_t fx_asin_q30(int32_t x, uint8_t *status)
+/* The series, for |x| <= 1/2. */
+static int32_t asin_series_q30(int32_t x, uint8_t *status)
 {
     static const int32_t c[] = {1073741824, 178956971, 80530637, 47934905, 32622364};
     int32_t x2 = fx_mul_shr(x, x, 30, status);
@@ -162,6 +163,23 @@ int32_t fx_asin_q30(int32_t x, uint8_t *status)
         acc = fx_add(fx_mul_shr(acc, x2, 30, status), c[i], status);
     }
     return fx_mul_shr(acc, x, 30, status);
+}
+
+int32_t fx_asin_q30(int32_t x, uint8_t *status)
+{
+    const int32_t one = (int32_t)1 << 30, half = (int32_t)1 << 29;
+    if (x > one || x < -one) {
+        *status |= STATUS_CLAMPED;
+        x = x > 0 ? one : -one;
+    }
+    if (x <= half && x >= -half) {
+        return asin_series_q30(x, status);
+    }
+    /* asin x = π/2 - 2 asin sqrt((1 - x)/2) for x > 1/2, the root within the series'. */
+    int32_t mag = x > 0 ? x : -x;
+    int32_t r = fx_sqrt((one - mag) / 2, 30, status);
+    int32_t a = 1686629713 /* π/2, Q30 */ - 2 * asin_series_q30(r, status);
+    return x > 0 ? a : -a;
 }
 
 /* log2(1 + k/16) in Q24, k = 0..16. */

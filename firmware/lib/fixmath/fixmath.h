@@ -57,7 +57,8 @@ int32_t fx_from_float(float x, uint8_t q, uint8_t *status);
  * libm's last bit differs between avr-libc and the host, and FIXED needs the same bits. */
 void fx_small_cos_sin_q30(int32_t eps, int32_t *c, int32_t *s, uint8_t *status);
 
-/* asin x in Q30 for x in Q30, |x| <= 1/2 (30°), from its series to x⁹: error < 1e-5 rad. */
+/* asin x in Q30 for x in Q30, |x| <= 1 (past it: clamped, STATUS_CLAMPED): its series to
+ * x⁹ up to 1/2, error < 1e-5 rad, and past 1/2 π/2 - 2 asin sqrt((1 - x)/2). */
 int32_t fx_asin_q30(int32_t x, uint8_t *status);
 
 /* log2(x · 2^-q) in Q24 for x > 0 (x <= 0 gives INT32_MIN): the leading bit's position

@@ -28,6 +28,7 @@ env.Replace(
     SIZEDATAREGEXP=r"^(?:\.data|\.bss|\.noinit)\s+(\d+).*",
 )
 env.Append(
+    ASFLAGS=["-mmcu=" + mcu],
     CCFLAGS=["-mmcu=" + mcu],
     # .data loaded below 64 KB of flash, where QEMU 7.2 can read it (vehil/build/ldscript.py)
     LINKFLAGS=["-mmcu=" + mcu, "-T", str(write_script(Path(env.subst("$BUILD_DIR")), mcu))],
