@@ -144,8 +144,7 @@ void longit_outputs_q(const longit_q_t *l, int32_t m, uint8_t q_m, int32_t cda, 
     int32_t ratio = 0;
     if (m > 0) {
         ratio = fx_div(m_sin, q_ms, m, q_m, 30, status);
-    }
-    if (m <= 0) {
+    } else {
         *status |= STATUS_CLAMPED;
     }
     int32_t grade = fx_sub(fx_asin_q30(ratio, status), l->eps, status); /* clamps |ratio| > 1 */

@@ -43,7 +43,7 @@ static void rls_reset(void *state)
     reset_covariance(s);
 }
 
-/* FIXED's constants from the Q parameters with integer arithmetic only (see above). */
+/* FIXED's constants from the Q parameters with integer arithmetic only (longit_q_t). */
 static void configure_q(rls_state_t *s, const uint8_t *params)
 {
     uint8_t st = 0;

@@ -238,6 +238,36 @@ static int32_t scale_pow2(int64_t x, int16_t up, uint8_t *st)
     return v * ((int32_t)1 << up);
 }
 
+/* v 2^-down, rounded half up, by whole bytes and then bits (|v| < 2^30). */
+static int32_t shift_down(int32_t v, uint8_t down)
+{
+    if (down == 0u) {
+        return v;
+    }
+    if (down > 30u) {
+        return 0;
+    }
+    v += (int32_t)1 << (down - 1u);
+    for (; down >= 8u; down -= 8u) {
+        v >>= 8;
+    }
+    return v >> down;
+}
+
+/* x · 2^up, rounded (half up) when up < 0: by shifts, since an int64 times a power of
+ * two is a full 64-bit product on the AVR. The callers keep x 2^up within int64; GCC
+ * (both builds) shifts a negative int64 arithmetically and wraps the unsigned cast. */
+static int64_t shift_up(int64_t x, int8_t up)
+{
+    if (up == 0) {
+        return x;
+    }
+    if (up > 0) {
+        return (int64_t)((uint64_t)x << up);
+    }
+    return up < -62 ? 0 : (x + ((int64_t)1 << (-up - 1))) >> -up;
+}
+
 /* The shift k that brings a peak of that many bits to the most bits <= limit. */
 static int8_t fit(uint8_t peak_bits, int32_t limit)
 {
@@ -257,21 +287,8 @@ static int8_t normalize(const int32_t *in, int32_t *out, uint8_t n, int32_t limi
     if (k > 0 && ((peak >> (k - 1)) + 1u) >> 1 > (uint32_t)limit) {
         k++; /* rounding up would pass the limit */
     }
-    if (k <= 0) {
-        for (uint8_t i = 0; i < n; i++) {
-            out[i] = in[i] * ((int32_t)1 << -k);
-        }
-        return k;
-    }
-    /* Whole bytes by moving them, the rest bit by bit (|in| < 2^30: + half fits). */
-    int32_t half = (int32_t)1 << (k - 1);
-    uint8_t bytes = (uint8_t)(k >> 3), bits = (uint8_t)(k & 7);
-    for (uint8_t i = 0; i < n; i++) {
-        int32_t v = in[i] + half;
-        for (uint8_t b = 0; b < bytes; b++) {
-            v >>= 8;
-        }
-        out[i] = v >> bits;
+    for (uint8_t i = 0; i < n; i++) { /* |in| < 2^30 */
+        out[i] = k > 0 ? shift_down(in[i], (uint8_t)k) : in[i] * ((int32_t)1 << -k);
     }
     return k;
 }
@@ -292,9 +309,8 @@ static int8_t normalize64(const int64_t *in, int32_t *out, uint8_t n, int32_t li
     if (k > 0 && ((peak >> (k - 1)) + 1u) >> 1 > (uint64_t)limit) {
         k++;
     }
-    int64_t half = k > 0 ? (int64_t)1 << (k - 1) : 0;
     for (uint8_t i = 0; i < n; i++) {
-        out[i] = k > 0 ? (int32_t)((in[i] + half) >> k) : (int32_t)in[i] * ((int32_t)1 << -k);
+        out[i] = k > 0 ? (int32_t)shift_up(in[i], (int8_t)-k) : (int32_t)in[i] * ((int32_t)1 << -k);
     }
     return k;
 }
@@ -392,36 +408,6 @@ static void filter_q(const stlqf_q_t *q, const int32_t *x, const int32_t h[2][3]
     k[2] = normalize64(&row[4], &m[4], 1, ROW_LIMIT);
 }
 
-/* v 2^-down, rounded half up, by whole bytes and then bits (|v| < 2^30). */
-static int32_t shift_down(int32_t v, uint8_t down)
-{
-    if (down == 0u) {
-        return v;
-    }
-    if (down > 30u) {
-        return 0;
-    }
-    v += (int32_t)1 << (down - 1u);
-    for (; down >= 8u; down -= 8u) {
-        v >>= 8;
-    }
-    return v >> down;
-}
-
-/* x · 2^up, rounded (half up) when up < 0: by shifts, since an int64 times a power of
- * two is a full 64-bit product on the AVR. The callers keep x 2^up within int64; GCC
- * (both builds) shifts a negative int64 arithmetically and wraps the unsigned cast. */
-static int64_t shift_up(int64_t x, int8_t up)
-{
-    if (up == 0) {
-        return x;
-    }
-    if (up > 0) {
-        return (int64_t)((uint64_t)x << up);
-    }
-    return up < -62 ? 0 : (x + ((int64_t)1 << (-up - 1))) >> -up;
-}
-
 /* The window's residual against the prior, ζ - Φ̃ θ_prior (the slopes' prior is 0, so
  * the v̇, ½ρv² and g' columns), from the rows in int32 (r, 2^e_r each channel) into
  * out at the exponent it returns. Its terms are int64 at a common exponent chosen so
@@ -477,8 +463,9 @@ static uint8_t solve_q(stlqf_state_t *s, int32_t *log_cond)
             top = k > top ? k : top;
         }
         for (uint8_t j = 0; j < STLQF_ROWS; j++) {
-            const int32_t *m = s->rows.q[slot(s, j)].m;
-            uint8_t down = (uint8_t)(top - s->rows.q[slot(s, j)].k[ch]);
+            const uint8_t at = slot(s, j);
+            const int32_t *m = s->rows.q[at].m;
+            uint8_t down = (uint8_t)(top - s->rows.q[at].k[ch]);
             r[ch][j] = shift_down(m[ch < 2u ? ch : 4u], down);
             r[ch][STLQF_ROWS + j] = ch < 2u ? shift_down(m[2u + ch], down) : 0;
         }
