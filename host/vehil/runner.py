@@ -26,7 +26,7 @@ from rich.text import Text
 
 from vehil import plants, record
 from vehil.boards import Board, make_board, open_board
-from vehil.errors import BoardReset, VehilError
+from vehil.errors import BoardError, BoardReset, VehilError
 from vehil.link import BoardInfo, Link, Reply
 from vehil.logs import trace_from_log
 from vehil.plants.base import Trace
@@ -259,7 +259,23 @@ MAX_RESUMES = 3
 
 def _configure(link: Link, sc: Scenario) -> None:
     spec = sc.estimator
-    link.configure(spec.name, sc.mode, spec.encode_params(sc.params, sc.mode))
+    try:
+        link.configure(spec.name, sc.mode, spec.encode_params(sc.params, sc.mode))
+    except BoardError as exc:
+        if exc.code != "BAD_PARAM" or not 0 <= exc.detail < len(spec.params):
+            raise
+        # The scenario range-checked every value, so the board refuses this one in this
+        # numeric mode or together with the others: name it, and where the rules are.
+        p = spec.params[exc.detail]
+        raise BoardError(
+            f"board refused CONFIG: BAD_PARAM (parameter {exc.detail}, {p.name} = "
+            f"{sc.params[p.name]:g} {p.unit}, is in [{p.lo:g}, {p.hi:g}] but {spec.name} in "
+            f"{sc.mode} refuses it with these parameters; what each mode takes: "
+            f"firmware/lib/estimators/{spec.name}.h)",
+            exc.code,
+            exc.request,
+            exc.detail,
+        ) from None
 
 
 def _catch_up(link: Link, source: _Drive | _Loop, sc: Scenario, answers: list[bytes]) -> None:

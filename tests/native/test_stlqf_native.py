@@ -62,3 +62,18 @@ def test_fixed_point_stlqf_flags_inputs_past_its_bounds_as_clamped(built) -> Non
             for u in ([10.0, 1.0, 1500.0], [90.0, 1.0, 1500.0])  # the second past 82 m/s
         )
     assert not fine.fields()["status"] & 0x08 and fast.fields()["status"] & 0x08
+
+
+def test_a_scenario_that_fixed_point_refuses_names_the_parameter(built, tmp_path) -> None:  # noqa: ANN001
+    from rich.console import Console
+
+    from vehil import runner, scenario
+
+    text = (scenario.SCENARIO_DIR / "stlqf" / "paper-dither-fixed.toml").read_text()
+    path = tmp_path / "prefiltered.toml"
+    extra = "[estimator.params]\nprefilter_hz = 1.0\n"
+    path.write_text(text.replace("duration = 75.0", "duration = 1.0") + extra)
+    run = runner.run(scenario.load(str(path)), "native", console=Console(quiet=True))
+    assert run.ended == "failed"
+    assert "prefilter_hz = 1 Hz, is in [0, 50]" in run.error
+    assert "stlqf in FIXED refuses it" in run.error
