@@ -54,8 +54,10 @@ int32_t uart_ubrr(uint32_t baud)
 void uart_init(uint32_t baud)
 {
     UCSR0B = 0;
-    UBRR0 = (uint16_t)uart_ubrr(baud);
+    /* U2X0 before UBRR0: the chip does not care, but simavr fixes the bit time when
+     * UBRR0 is written, from U2X0 as it is then (the other order ran at half the baud). */
     UCSR0A = _BV(U2X0);
+    UBRR0 = (uint16_t)uart_ubrr(baud);
     UCSR0C = _BV(UCSZ01) | _BV(UCSZ00); /* 8N1 */
     UCSR0B = _BV(RXEN0) | _BV(TXEN0) | _BV(RXCIE0);
     current_baud = baud;

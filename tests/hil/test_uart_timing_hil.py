@@ -1,0 +1,98 @@
+"""The bit time simavr really gives the UART, at every standard rate SET_BAUD accepts.
+
+simavr fixes a UART's byte time when UBRR0 is written, from U2X0 as it is then, so an
+init that writes them in the other order runs at half the requested baud on simavr and
+at the right one on the chip. The bridge's VCD trace timestamps every byte written to
+UDR0 in simulated time; inside a reply frame the TX interrupt refills UDR0 as soon as
+it empties, so the spacing of a frame's bytes is simavr's byte time.
+"""
+
+from __future__ import annotations
+
+import statistics
+from pathlib import Path
+
+import pytest
+
+from vehil.boards import open_board
+from vehil.errors import BoardError
+
+pytestmark = pytest.mark.hil
+
+F_CPU = 16_000_000
+STANDARD_BAUDS = (
+    9600,
+    14400,
+    19200,
+    28800,
+    38400,
+    57600,
+    76800,
+    115200,
+    230400,
+    250000,  # fmt: skip
+    460800,
+    500000,
+    921600,
+    1_000_000,
+    2_000_000,
+)
+BITS_PER_BYTE = 11  # simavr counts a parity bit in 8N1 (see sim/README.md)
+VCD_NS = 10  # the bridge's VCD timescale
+PINGS = 3
+
+
+def _tx_frames(vcd: Path) -> list[list[int]]:
+    """The times (ns) of every byte written to UDR0, split into frames at the 0x00 delimiter."""
+    ids: dict[str, str] = {}
+    frames: list[list[int]] = [[]]
+    now, value = 0, 0
+    for line in vcd.read_text().splitlines():
+        if line.startswith("$var"):
+            _, _, _, ident, name, _ = line.split()
+            ids[name] = ident
+        elif line.startswith("#"):
+            now = int(line[1:]) * VCD_NS
+        elif line.startswith("b") and line.split()[1] == ids.get("uart0_tx"):
+            bits = line.split()[0][1:]
+            value = int(bits, 2) if "x" not in bits else -1
+        elif line[:1] in "01" and line[1:] == ids.get("uart0_tx_strobe"):
+            frames[-1].append(now)
+            if value == 0:
+                frames.append([])
+    return [f for f in frames if f]
+
+
+def test_simavr_bit_time_is_the_requested_baud_at_every_accepted_rate(built, tmp_path) -> None:
+    vcd = tmp_path / "uart.vcd"
+    first_pong: dict[int, int] = {}  # baud -> index of its first PONG among the board's frames
+    with open_board("simavr", vcd=vcd, timeout_s=5.0) as link:
+        for baud in STANDARD_BAUDS:
+            sent = link.stats()["tx_frames"]  # frames before this STATS reply
+            try:
+                link.set_baud(baud)
+            except BoardError as exc:
+                assert exc.code == "BAD_BAUD", exc
+                continue
+            first_pong[baud] = sent + 2  # after the STATS reply and SET_BAUD's ACK
+            for _ in range(PINGS):
+                link.request("PING", payload=bytes(range(1, 49)))
+    frames = _tx_frames(vcd)
+    lines, measured = [], []
+    for baud, first in first_pong.items():
+        pongs = frames[first : first + PINGS]
+        assert all(len(f) == 48 + 10 for f in pongs)  # COBS(PONG) and its delimiter
+        byte_ns = statistics.median((f[-1] - f[0]) / (len(f) - 1) for f in pongs)
+        bit_s = byte_ns / BITS_PER_BYTE * 1e-9
+        ubrr = round(F_CPU / (8 * baud)) - 1  # U2X: a bit is 8 (UBRR + 1) cycles
+        chip_bit_s = 8 * (ubrr + 1) / F_CPU
+        measured.append((baud, bit_s, chip_bit_s))
+        lines.append(
+            f"{baud:>9} baud: bit {bit_s * 1e6:8.3f} us, chip {chip_bit_s * 1e6:8.3f} us, "
+            f"{bit_s * baud:.4f} x requested"
+        )
+    print("\n" + "\n".join(lines))
+    for baud, bit_s, chip_bit_s in measured:
+        assert bit_s == pytest.approx(chip_bit_s, rel=0.01), f"{baud} baud"
+        assert bit_s * baud == pytest.approx(1.0, abs=0.04), f"{baud} baud"  # SET_BAUD's limit
+    assert {115200, 250000, 500000, 1_000_000, 2_000_000} <= set(first_pong)
