@@ -3,8 +3,6 @@
 #include <math.h>
 #include <string.h>
 
-#include "linalg/chol_f32.h"
-#include "linalg/mat_f32.h"
 #include "proto/wire.h"
 
 enum { P_T, P_INTEGRATOR, P_Q, P_RX, P_RA, P_P0, P_S0, N_OWN };
@@ -15,101 +13,159 @@ static const param_range_t ranges[N_OWN] = {
     {1e-9f, 1e3f, 16},  {0.0f, 1e3f, 16}, {0.0f, 1e3f, 16},
 };
 
-/* ẍ_s and ẍ_us of the nominal model with the road input d (eqs. 4-5, 34). */
-static void accelerations(const qcar_f32_t *m, const float *x, float u, float d, float *a)
+/* The strut's tangent stiffness k and damping c at deflection dx, rate dv (eq. 37). */
+static void strut_slopes(const kfui_state_t *s, float dx, float dv, float *k, float *c)
 {
-    float strut = qcar_strut_f32(m, x[0] - x[2], x[1] - x[3], 0);
-    a[0] = (u - strut) / m->m_s;
-    a[1] = (strut - m->k_us * (x[2] - d) - u) / m->m_us;
+    *k = s->ecu.model.k1 + dx * (s->c.k2_2 + s->c.k3_3 * dx);
+    *c = s->ecu.model.c1 + s->c.c2_2 * dv;
 }
 
-/* Rows 2 and 4 of the Jacobian (eq. 37) at x; rows 1 and 3 are [0 1 0 0], [0 0 0 1]. */
-static void jacobian_rows(const qcar_f32_t *m, const float *x, float *row2, float *row4)
+/* ẍ_s and ẍ_us of the nominal model with the force u and the road input d (eqs. 4-5, 34). */
+static void accelerations(const kfui_state_t *s, const float *x, float u, float d, float *a)
 {
-    float dx = x[0] - x[2];
-    float ks = m->k1 + 2.0f * m->k2 * dx + 3.0f * m->k3 * dx * dx;
-    float cs = m->c1 + 2.0f * m->c2 * (x[1] - x[3]);
-    const float r[4] = {ks, cs, -ks, -cs};
-    for (uint8_t j = 0; j < 4u; j++) {
-        row2[j] = -r[j] / m->m_s;
-        row4[j] = r[j] / m->m_us;
+    const qcar_f32_t *m = &s->ecu.model;
+    float strut = qcar_strut_f32(m, x[0] - x[2], x[1] - x[3], 0);
+    a[0] = (u - strut) * s->c.inv_m_s;
+    a[1] = (strut - m->k_us * (x[2] - d) - u) * s->c.inv_m_us;
+}
+
+/* Row i of F v, F = I + T J: J's rows are e2ᵀ, -ρᵀ/m_s, e4ᵀ, ρᵀ/m_us - (k_us/m_us) e3ᵀ with
+ * ρ = [k, c, -k, -c] (eq. 37); w = ρ·v. */
+static float f_row(const kfui_state_t *s, const float *v, float w, uint8_t i)
+{
+    switch (i) {
+    case 0:
+        return v[0] + s->T * v[1];
+    case 1:
+        return v[1] - s->c.T_m_s * w;
+    case 2:
+        return v[2] + s->T * v[3];
+    default:
+        return v[3] + s->c.T_m_us * w - s->c.T_d1 * v[2];
     }
-    row4[2] -= m->k_us / m->m_us;
+}
+
+/* (27)-(28): x̄ = x + T f(x, u, û), P̄ = F P Fᵀ + Q: A = F P column by column (P is
+ * symmetric, so its rows are its columns), then P̄ = F Aᵀ on the upper triangle. */
+static void predict(kfui_state_t *s, float u, float *xb, float Pb[4][4])
+{
+    float T = s->T, a[2], k, c, A[4][4];
+    accelerations(s, s->x, u, s->d, a);
+    strut_slopes(s, s->x[0] - s->x[2], s->x[1] - s->x[3], &k, &c);
+    xb[0] = s->x[0] + T * s->x[1];
+    xb[1] = s->x[1] + T * a[0];
+    xb[2] = s->x[2] + T * s->x[3];
+    xb[3] = s->x[3] + T * a[1];
+    for (uint8_t j = 0; j < 4u; j++) {
+        const float *p = s->P[j];
+        float w = k * (p[0] - p[2]) + c * (p[1] - p[3]);
+        for (uint8_t i = 0; i < 4u; i++) {
+            A[i][j] = f_row(s, p, w, i);
+        }
+    }
+    for (uint8_t i = 0; i < 4u; i++) {
+        const float *r = A[i];
+        float w = k * (r[0] - r[2]) + c * (r[1] - r[3]);
+        for (uint8_t j = 0; j <= i; j++) {
+            Pb[i][j] = Pb[j][i] = f_row(s, r, w, j);
+        }
+        Pb[i][i] += s->q;
+    }
+}
+
+/* (29)-(33) through Σ = H P̄ Hᵀ + R = L D Lᵀ (L unit lower triangular). With z = L⁻¹ r0
+ * the decorrelated innovations, the GLS input estimate (30)-(31) is û = z_4 / d1 and the
+ * update (32)-(33) is that of z_1..z_3 alone: x = x̄ + Σ_j Y_j z_j / D_j and
+ * P = P̄ - Σ_j Y_j Y_jᵀ / D_j, j < 4, Y = P̄ Hᵀ L⁻ᵀ (docs/estimators/kfui.md). */
+static uint8_t update(kfui_state_t *s, const float *y, float u, const float *xb, float Pb[4][4])
+{
+    const kfui_const_t *c = &s->c;
+    float a[2], k, cd, G[4][4], S[4][4];
+    accelerations(s, xb, u, 0.0f, a);
+    strut_slopes(s, xb[0] - xb[2], xb[1] - xb[3], &k, &cd);
+    for (uint8_t i = 0; i < 4u; i++) { /* G = P̄ Hᵀ */
+        const float *p = Pb[i];
+        float w = k * (p[0] - p[2]) + cd * (p[1] - p[3]);
+        G[i][0] = p[0];
+        G[i][1] = -c->inv_m_s * w;
+        G[i][2] = p[2];
+        G[i][3] = c->inv_m_us * w - c->d1 * p[2];
+    }
+    /* Σ = H G, lower triangle: an entry with a displacement row is an entry of G. */
+    float t1 = k * (G[0][1] - G[2][1]) + cd * (G[1][1] - G[3][1]);
+    float t3 = k * (G[0][3] - G[2][3]) + cd * (G[1][3] - G[3][3]);
+    S[0][0] = G[0][0] + s->r_x;
+    S[1][0] = G[0][1];
+    S[1][1] = s->r_a - c->inv_m_s * t1;
+    S[2][0] = G[0][2];
+    S[2][1] = G[2][1];
+    S[2][2] = G[2][2] + s->r_x;
+    S[3][0] = G[0][3];
+    S[3][1] = c->inv_m_us * t1 - c->d1 * G[2][1];
+    S[3][2] = G[2][3];
+    S[3][3] = s->r_a + c->inv_m_us * t3 - c->d1 * G[2][3];
+    float L[4][4], E[4][4], inv_D[4]; /* E_ij = L_ij D_j */
+    for (uint8_t j = 0; j < 4u; j++) {
+        for (uint8_t i = j; i < 4u; i++) {
+            float v = S[i][j];
+            for (uint8_t m = 0; m < j; m++) {
+                v -= L[i][m] * E[j][m];
+            }
+            if (i == j) {
+                if (!(v > 0.0f)) {
+                    memcpy(s->x, xb, sizeof s->x);
+                    memcpy(s->P, Pb, sizeof s->P);
+                    return STATUS_SINGULAR;
+                }
+                inv_D[j] = 1.0f / v;
+            } else {
+                E[i][j] = v;
+                L[i][j] = v * inv_D[j];
+            }
+        }
+    }
+    float r0[4] = {y[0] - xb[0], y[1] - a[0], y[2] - xb[2], y[3] - a[1]}; /* y - h(x̄, u, 0) */
+    float z[4];
+    for (uint8_t i = 0; i < 4u; i++) {
+        float v = r0[i];
+        for (uint8_t m = 0; m < i; m++) {
+            v -= L[i][m] * z[m];
+        }
+        z[i] = v;
+    }
+    s->d = z[3] * c->inv_d1;
+    float Y[4][3], V[4][3];
+    for (uint8_t i = 0; i < 4u; i++) {
+        for (uint8_t j = 0; j < 3u; j++) {
+            float v = G[i][j];
+            for (uint8_t m = 0; m < j; m++) {
+                v -= L[j][m] * Y[i][m];
+            }
+            Y[i][j] = v;
+            V[i][j] = v * inv_D[j];
+        }
+        s->x[i] = xb[i] + V[i][0] * z[0] + V[i][1] * z[1] + V[i][2] * z[2];
+    }
+    for (uint8_t i = 0; i < 4u; i++) {
+        for (uint8_t j = i; j < 4u; j++) {
+            s->P[i][j] = s->P[j][i] =
+                Pb[i][j] - V[i][0] * Y[j][0] - V[i][1] * Y[j][1] - V[i][2] * Y[j][2];
+        }
+    }
+    return 0;
 }
 
 static uint8_t kfui_update(kfui_state_t *s, const float *y, float u)
 {
-    const qcar_f32_t *m = &s->ecu.model;
-    float a[2], *F = s->H, *tmp = s->K;
-    /* (27)-(28): x̄ = x + T f(x, u, û), F = I + T J, P̄ = F P Fᵀ + Q */
-    memset(F, 0, 16 * sizeof(float));
-    jacobian_rows(m, s->x, F + 4, F + 12);
-    F[1] = F[11] = 1.0f;
-    for (uint8_t i = 0; i < 16u; i++) {
-        F[i] = (i % 5u == 0u ? 1.0f : 0.0f) + s->T * F[i];
-    }
-    accelerations(m, s->x, u, s->d, a);
-    float xb[4] = {s->x[0] + s->T * s->x[1], s->x[1] + s->T * a[0], s->x[2] + s->T * s->x[3],
-                   s->x[3] + s->T * a[1]};
-    mat_mul_f32(F, s->P, 4, 4, 4, tmp);
-    mat_mul_bt_f32(tmp, F, 4, 4, 4, s->Pb);
-    for (uint8_t i = 0; i < 4u; i++) {
-        s->Pb[5u * i] += s->q;
-    }
-    /* (29): H at x̄, Σ = H P̄ Hᵀ + R, K = P̄ Hᵀ Σ⁻¹ */
-    float *H = s->H;
-    memset(H, 0, 16 * sizeof(float));
-    H[0] = H[10] = 1.0f;
-    jacobian_rows(m, xb, H + 4, H + 12);
-    mat_mul_bt_f32(s->Pb, H, 4, 4, 4, s->PHt);
-    mat_mul_f32(H, s->PHt, 4, 4, 4, s->Sig);
-    for (uint8_t i = 0; i < 4u; i++) {
-        s->Sig[5u * i] += s->r[i];
-    }
-    if (!chol_inv_f32(s->Sig, 4)) {
-        memcpy(s->x, xb, sizeof xb);
-        memcpy(s->P, s->Pb, sizeof s->P);
-        return STATUS_SINGULAR;
-    }
-    mat_mul_f32(s->PHt, s->Sig, 4, 4, 4, s->K);
-    /* (30)-(31) with R⁻¹(I - HK) = Σ⁻¹ and D = [0 0 0 d1]: r0 = y - h(x̄, u, 0) */
-    accelerations(m, xb, u, 0.0f, a);
-    float r0[4] = {y[0] - xb[0], y[1] - a[0], y[2] - xb[2], y[3] - a[1]};
-    float d1 = m->k_us / m->m_us, w3 = 0.0f;
-    for (uint8_t j = 0; j < 4u; j++) {
-        w3 += s->Sig[12u + j] * r0[j];
-    }
-    float S = 1.0f / (d1 * d1 * s->Sig[15]);
-    s->d = S * d1 * w3;
-    r0[3] -= d1 * s->d;
-    /* (32): x = x̄ + K (r0 - D û) */
-    for (uint8_t i = 0; i < 4u; i++) {
-        float dx = 0.0f;
-        for (uint8_t j = 0; j < 4u; j++) {
-            dx += s->K[4u * i + j] * r0[j];
-        }
-        s->x[i] = xb[i] + dx;
-    }
-    /* (33) = P̄ - K (H P̄) + S (K D)(K D)ᵀ, with H P̄ = PHtᵀ; kept symmetric (float32) */
-    for (uint8_t i = 0; i < 4u; i++) {
-        for (uint8_t j = 0; j <= i; j++) {
-            float khp = 0.0f;
-            for (uint8_t k = 0; k < 4u; k++) {
-                khp += 0.5f * (s->K[4u * i + k] * s->PHt[4u * j + k] +
-                               s->K[4u * j + k] * s->PHt[4u * i + k]);
-            }
-            float p = s->Pb[4u * i + j] - khp + S * d1 * d1 * s->K[4u * i + 3u] * s->K[4u * j + 3u];
-            s->P[4u * i + j] = s->P[4u * j + i] = p;
-        }
-    }
-    return 0;
+    float xb[4], Pb[4][4];
+    predict(s, u, xb, Pb);
+    return update(s, y, u, xb, Pb);
 }
 
 static uint8_t kfui_step(void *state, const uint8_t *in, uint8_t in_len, uint8_t *out,
                          uint8_t *out_len)
 {
     kfui_state_t *s = state;
-    const qcar_f32_t *m = &s->ecu.model;
     (void)in_len;
     *out_len = 4u * SUSP_ECU_N_OUTPUTS;
     float a_s = get_f32(in), a_us = get_f32(in + 4);
@@ -125,7 +181,7 @@ static uint8_t kfui_step(void *state, const uint8_t *in, uint8_t in_len, uint8_t
         }
     }
     float a[2];
-    accelerations(m, s->x, 0.0f, s->d, a);
+    accelerations(s, s->x, 0.0f, s->d, a);
     susp_est_f32_t est = {s->x[0], s->x[1], s->x[2], s->x[3], a[0], a[1], s->d};
     if (!(status & STATUS_NOT_FINITE)) {
         s->ecu.u = susp_ctrl_step_f32(&s->ecu.ctrl, &est, &status);
@@ -141,7 +197,7 @@ static void kfui_reset(void *state)
     memset(s->x, 0, sizeof s->x);
     memset(s->P, 0, sizeof s->P);
     for (uint8_t i = 0; i < 4u; i++) {
-        s->P[5u * i] = s->p0;
+        s->P[i][i] = s->p0;
     }
     s->d = 0.0f; /* û*(0) = 0; S is recomputed each step, so S0 is never read (30) */
 }
@@ -155,11 +211,24 @@ static uint8_t kfui_configure(void *state, uint8_t mode, const uint8_t *params)
     }
     s->T = get_f32(params + 4u * P_T);
     s->q = get_f32(params + 4u * P_Q);
-    float r_x = get_f32(params + 4u * P_RX), r_a = get_f32(params + 4u * P_RA);
-    s->r[0] = s->r[2] = r_x;
-    s->r[1] = s->r[3] = r_a;
+    s->r_x = get_f32(params + 4u * P_RX);
+    s->r_a = get_f32(params + 4u * P_RA);
     s->p0 = get_f32(params + 4u * P_P0);
     susp_ecu_configure_f32(&s->ecu, params, N_OWN, mode, s->T);
+    const qcar_f32_t *m = &s->ecu.model;
+    float inv_m_s = 1.0f / m->m_s, inv_m_us = 1.0f / m->m_us, d1 = m->k_us * inv_m_us;
+    s->c = (kfui_const_t){
+        .inv_m_s = inv_m_s,
+        .inv_m_us = inv_m_us,
+        .d1 = d1,
+        .inv_d1 = m->m_us / m->k_us,
+        .T_m_s = s->T * inv_m_s,
+        .T_m_us = s->T * inv_m_us,
+        .T_d1 = s->T * d1,
+        .k2_2 = 2.0f * m->k2,
+        .k3_3 = 3.0f * m->k3,
+        .c2_2 = 2.0f * m->c2,
+    };
     kfui_reset(s);
     return 0;
 }

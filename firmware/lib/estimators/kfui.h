@@ -2,7 +2,9 @@
  * float32. States [x_s, ẋ_s, x_us, ẋ_us], unknown input x_r by generalised least squares
  * each step (eqs. 26-33); y = [x_s, ẍ_s, x_us, ẍ_us] from the conditioned displacements
  * and the raw accelerations; printed forward-Euler prediction F = I + T J (eqs. 35-36).
- * Then the predictive controller.
+ * Then the predictive controller. The update is eqs. 29-33 through an LDLᵀ factor of the
+ * innovation covariance, which makes the unknown input the last decorrelated innovation
+ * (docs/estimators/kfui.md).
  *
  * Inputs  a_s, a_us [m/s²].   Outputs see susp_ecu.h.
  * Params  T, integrator (0 only: Euler), q, r_x, r_a, p0, s0, then the ECU tail. */
@@ -16,11 +18,18 @@
 
 #define KFUI_ID 41u
 
+/* Per-step constants, set at CONFIG from T and the nominal model. */
+typedef struct {
+    float inv_m_s, inv_m_us, d1, inv_d1;   /* 1/m_s, 1/m_us, k_us/m_us, m_us/k_us */
+    float T_m_s, T_m_us, T_d1;             /* T/m_s, T/m_us, T k_us/m_us */
+    float k2_2, k3_3, c2_2;                /* 2 k2, 3 k3, 2 c2: the Jacobian's slopes */
+} kfui_const_t;
+
 typedef struct {
     susp_ecu_f32_t ecu;
-    float T, q, r[4], p0;
-    float x[4], P[16], d; /* x̂, P, û* = x̂_r */
-    float Pb[16], H[16], PHt[16], Sig[16], K[16]; /* work */
+    kfui_const_t c;
+    float T, q, r_x, r_a, p0;
+    float x[4], P[4][4], d; /* x̂, P (kept exactly symmetric), û* = x̂_r */
 } kfui_state_t;
 
 extern const estimator_t kfui_estimator;
