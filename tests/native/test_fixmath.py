@@ -17,7 +17,7 @@ def test_fx_tanh_stays_within_its_stated_bound(native_lib) -> None:  # noqa: ANN
 
 
 def test_fx_mul_rounds_to_nearest_and_saturates(native_lib) -> None:  # noqa: ANN001
-    f = native_lib.fx_mul
+    f = native_lib.fx_mul_wide
     f.argtypes = [
         ctypes.c_int32,
         ctypes.c_uint8,
@@ -37,7 +37,7 @@ def test_fx_mul_rounds_to_nearest_and_saturates(native_lib) -> None:  # noqa: AN
 
 def test_fx_mul_is_exact_rounding_of_the_product_over_random_operands(native_lib) -> None:  # noqa: ANN001
     """Against Python's integers: round half away from zero, saturate to int32."""
-    f = native_lib.fx_mul
+    f = native_lib.fx_mul_wide
     f.argtypes = [ctypes.c_int32, ctypes.c_uint8, ctypes.c_int32, ctypes.c_uint8, ctypes.c_uint8]
     f.argtypes += [ctypes.POINTER(ctypes.c_uint8)]
     f.restype = ctypes.c_int32
@@ -62,3 +62,40 @@ def test_fx_mul_is_exact_rounding_of_the_product_over_random_operands(native_lib
         m = (abs(p) + (1 << (shift - 1) if shift > 0 else 0)) >> shift
         want = max(-(2**31), min(2**31 - 1, m if p >= 0 else -m))
         assert f(a, qa, b, qb, q_out, ctypes.byref(status)) == want, (a, qa, b, qb, q_out)
+
+
+def _kernel(native_lib, name):  # noqa: ANN001, ANN202
+    f = getattr(native_lib, name)
+    f.argtypes = [ctypes.c_int32, ctypes.c_int32, ctypes.c_uint8, ctypes.POINTER(ctypes.c_uint8)]
+    f.restype = ctypes.c_int32
+    return f
+
+
+def _operands(rng, n):  # noqa: ANN001, ANN202
+    """Random int32s of every magnitude, and the edges."""
+    edges = [0, 1, -1, 2**31 - 1, -(2**31), 2**30, -(2**30), 2**15, -(2**15) - 1]
+    bits = rng.integers(0, 32, n)
+    mags = [int(rng.integers(0, 2 ** int(b))) if b else 0 for b in bits]
+    signs = rng.choice([-1, 1], n)
+    return edges + [
+        max(-(2**31), min(2**31 - 1, int(s) * m)) for s, m in zip(signs, mags, strict=True)
+    ]
+
+
+def test_the_multiply_kernels_round_and_saturate_as_stated_for_every_shift(native_lib) -> None:  # noqa: ANN001
+    """fx_mul_rs_c (ties away from zero) and fx_mul_shr_c (half up), the C twins of the AVR
+    entries, against Python's integers on edge and random operands at every shift."""
+    rs, shr = _kernel(native_lib, "fx_mul_rs_c"), _kernel(native_lib, "fx_mul_shr_c")
+    rng = np.random.default_rng(17)
+    ops = _operands(rng, 300)
+    for s in range(1, 63):
+        for a, b in zip(ops, rng.permutation(ops), strict=True):
+            b = int(b)
+            p, h = a * b, 1 << (s - 1)
+            away = (abs(p) + h) >> s
+            for f, want in ((rs, away if p >= 0 else -away), (shr, (p + h) >> s)):
+                status = ctypes.c_uint8(0)
+                got = f(a, b, s, ctypes.byref(status))
+                clipped = max(-(2**31), min(2**31 - 1, want))
+                assert got == clipped, (f, a, b, s)
+                assert bool(status.value & 0x01) == (clipped != want), (f, a, b, s)

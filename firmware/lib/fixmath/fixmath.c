@@ -13,10 +13,6 @@ int32_t fx_sat(int64_t x, uint8_t *status)
     return (int32_t)x;
 }
 
-int32_t fx_add(int32_t a, int32_t b, uint8_t *status) { return fx_sat((int64_t)a + b, status); }
-int32_t fx_sub(int32_t a, int32_t b, uint8_t *status) { return fx_sat((int64_t)a - b, status); }
-int32_t fx_neg(int32_t a, uint8_t *status) { return fx_sat(-(int64_t)a, status); }
-
 int64_t fx_round_shift(int64_t x, int8_t shift)
 {
     if (shift <= 0) {
@@ -29,12 +25,21 @@ int64_t fx_round_shift(int64_t x, int8_t shift)
     return x < 0 ? -(int64_t)m : (int64_t)m;
 }
 
-int32_t fx_mul(int32_t a, uint8_t qa, int32_t b, uint8_t qb, uint8_t q_out, uint8_t *status)
+int32_t fx_mul_wide(int32_t a, uint8_t qa, int32_t b, uint8_t qb, uint8_t q_out, uint8_t *status)
 {
     return fx_sat(fx_round_shift((int64_t)a * b, (int8_t)(qa + qb - q_out)), status);
 }
 
-int32_t fx_mul_shr(int32_t a, int32_t b, uint8_t s, uint8_t *status)
+/* The twins of fx_mul_avr.S. Ties away from zero as floor((p + 2^(s-1) - [p < 0]) 2^-s):
+ * the same as rounding |p| half up, in one add. GCC and clang shift a negative int64
+ * arithmetically. */
+int32_t fx_mul_rs_c(int32_t a, int32_t b, uint8_t s, uint8_t *status)
+{
+    int64_t p = (int64_t)a * b;
+    return fx_sat((p + ((int64_t)1 << (s - 1u)) - (p < 0)) >> s, status);
+}
+
+int32_t fx_mul_shr_c(int32_t a, int32_t b, uint8_t s, uint8_t *status)
 {
     return fx_sat(((int64_t)a * b + ((int64_t)1 << (s - 1u))) >> s, status);
 }
@@ -57,11 +62,6 @@ int32_t fx_div(int32_t a, uint8_t qa, int32_t b, uint8_t qb, uint8_t q_out, uint
         return negative ? FX_MIN : FX_MAX;
     }
     return negative ? (int32_t)(-(int64_t)q) : (int32_t)q;
-}
-
-int32_t fx_rescale(int32_t a, uint8_t q_in, uint8_t q_out, uint8_t *status)
-{
-    return fx_sat(fx_round_shift(a, (int8_t)(q_in - q_out)), status);
 }
 
 int32_t fx_sqrt(int32_t a, uint8_t q, uint8_t *status)

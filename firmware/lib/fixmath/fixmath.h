@@ -15,29 +15,130 @@
 #define FX_MAX INT32_MAX
 #define FX_MIN INT32_MIN
 
+/* The kernels below are always inlined, so that a Q format or shift given as a constant
+ * is folded where it is used (GCC would otherwise keep one out-of-line copy). */
+#define FX_INLINE static inline __attribute__((always_inline))
+
 /* x clamped to int32, flagging saturation. */
 int32_t fx_sat(int64_t x, uint8_t *status);
 
-int32_t fx_add(int32_t a, int32_t b, uint8_t *status);
-int32_t fx_sub(int32_t a, int32_t b, uint8_t *status);
-int32_t fx_neg(int32_t a, uint8_t *status);
+/* Saturating add, subtract and negate: inline, a few instructions on either core. */
+FX_INLINE int32_t fx_add(int32_t a, int32_t b, uint8_t *status)
+{
+    int32_t r;
+    if (__builtin_add_overflow(a, b, &r)) {
+        *status |= STATUS_SATURATED;
+        return a < 0 ? FX_MIN : FX_MAX;
+    }
+    return r;
+}
+
+FX_INLINE int32_t fx_sub(int32_t a, int32_t b, uint8_t *status)
+{
+    int32_t r;
+    if (__builtin_sub_overflow(a, b, &r)) {
+        *status |= STATUS_SATURATED;
+        return a < 0 ? FX_MIN : FX_MAX;
+    }
+    return r;
+}
+
+FX_INLINE int32_t fx_neg(int32_t a, uint8_t *status) { return fx_sub(0, a, status); }
 
 /* x * 2^-shift rounded to nearest, ties away from zero; shift may be negative. */
 int64_t fx_round_shift(int64_t x, int8_t shift);
 
-/* a (qa) * b (qb) -> q_out. */
-int32_t fx_mul(int32_t a, uint8_t qa, int32_t b, uint8_t qb, uint8_t q_out, uint8_t *status);
+/* The multiply kernels: a · b · 2^-s for 1 <= s <= 62, saturated to int32 (flagged).
+ * fx_mul_rs rounds to nearest with ties away from zero (fx_mul's rounding), fx_mul_shr
+ * half up. On the AVR a shift known at compile time calls an assembly entry written for
+ * that shift (fx_mul_avr.S: ~150 cycles, no int64 library call); the host, and a shift
+ * only known at run time, take the C twins below, which give the same bits. */
+int32_t fx_mul_rs_c(int32_t a, int32_t b, uint8_t s, uint8_t *status);
+int32_t fx_mul_shr_c(int32_t a, int32_t b, uint8_t s, uint8_t *status);
 
-/* a · b · 2^-s (1 <= s <= 62), rounded half up, saturated: the fast kernel for hot
- * loops (no variable-width rounding logic; GCC, in both builds, shifts a negative int64
- * arithmetically). */
-int32_t fx_mul_shr(int32_t a, int32_t b, uint8_t s, uint8_t *status);
+#if defined(__AVR__)
+#define FX_SHIFTS(X)                                                                          \
+    X(1) X(2) X(3) X(4) X(5) X(6) X(7) X(8) X(9) X(10) X(11) X(12) X(13) X(14) X(15) X(16) \
+    X(17) X(18) X(19) X(20) X(21) X(22) X(23) X(24) X(25) X(26) X(27) X(28) X(29) X(30) \
+    X(31) X(32) X(33) X(34) X(35) X(36) X(37) X(38) X(39) X(40) X(41) X(42) X(43) X(44) \
+    X(45) X(46) X(47) X(48) X(49) X(50) X(51) X(52) X(53) X(54) X(55) X(56) X(57) X(58) \
+    X(59) X(60) X(61) X(62)
+#define FX_DECLARE(n)                                                                          \
+    int32_t fx_mul_a##n(int32_t a, int32_t b, uint8_t *status);                                \
+    int32_t fx_mul_h##n(int32_t a, int32_t b, uint8_t *status);
+FX_SHIFTS(FX_DECLARE)
+#undef FX_DECLARE
+#endif
+
+FX_INLINE int32_t fx_mul_rs(int32_t a, int32_t b, uint8_t s, uint8_t *status)
+{
+#if defined(__AVR__)
+#define FX_CASE(n)                                                                             \
+    case n:                                                                                    \
+        return fx_mul_a##n(a, b, status);
+    if (__builtin_constant_p(s)) {
+        switch (s) { FX_SHIFTS(FX_CASE) }
+    }
+#undef FX_CASE
+#endif
+    return fx_mul_rs_c(a, b, s, status);
+}
+
+/* a · b · 2^-s (1 <= s <= 62), rounded half up, saturated: the hot-loop multiply of
+ * STLQF and RLS. */
+FX_INLINE int32_t fx_mul_shr(int32_t a, int32_t b, uint8_t s, uint8_t *status)
+{
+#if defined(__AVR__)
+#define FX_CASE(n)                                                                             \
+    case n:                                                                                    \
+        return fx_mul_h##n(a, b, status);
+    if (__builtin_constant_p(s)) {
+        switch (s) { FX_SHIFTS(FX_CASE) }
+    }
+#undef FX_CASE
+#endif
+    return fx_mul_shr_c(a, b, s, status);
+}
+
+/* a (qa) * b (qb) -> q_out, ties away from zero; qa + qb <= q_out (no fraction bit to
+ * drop) or a shift past 62 goes through int64 (fx_mul_wide). */
+int32_t fx_mul_wide(int32_t a, uint8_t qa, int32_t b, uint8_t qb, uint8_t q_out, uint8_t *status);
+
+FX_INLINE int32_t fx_mul(int32_t a, uint8_t qa, int32_t b, uint8_t qb, uint8_t q_out,
+                             uint8_t *status)
+{
+    int8_t s = (int8_t)(qa + qb - q_out);
+    return s >= 1 && s <= 62 ? fx_mul_rs(a, b, (uint8_t)s, status)
+                             : fx_mul_wide(a, qa, b, qb, q_out, status);
+}
 
 /* a (qa) / b (qb) -> q_out; b == 0 saturates towards a's sign and flags STATUS_SINGULAR. */
 int32_t fx_div(int32_t a, uint8_t qa, int32_t b, uint8_t qb, uint8_t q_out, uint8_t *status);
 
-/* a from q_in to q_out. */
-int32_t fx_rescale(int32_t a, uint8_t q_in, uint8_t q_out, uint8_t *status);
+/* a from q_in to q_out, ties away from zero, saturated; int32 only (a shift of whole
+ * bytes costs a few moves on the AVR, any other a short loop). */
+FX_INLINE int32_t fx_rescale(int32_t a, uint8_t q_in, uint8_t q_out, uint8_t *status)
+{
+    if (q_in > q_out) {
+        uint8_t d = (uint8_t)(q_in - q_out);
+        if (d > 31u) {
+            return fx_sat(fx_round_shift(a, (int8_t)d), status);
+        }
+        uint32_t half = (uint32_t)1 << (d - 1u);
+        uint32_t low = (uint32_t)a & ((half << 1) - 1u);
+        /* floor, then one up past the half (at the half too for a >= 0) */
+        return (a >> d) + (low >= half + (a < 0 ? 1u : 0u) ? 1 : 0);
+    }
+    uint8_t u = (uint8_t)(q_out - q_in);
+    if (u > 31u) {
+        return fx_sat(fx_round_shift(a, (int8_t)-u), status);
+    }
+    if (a > (FX_MAX >> u) || a < (FX_MIN >> u)) {
+        *status |= STATUS_SATURATED;
+        return a < 0 ? FX_MIN : FX_MAX;
+    }
+    return (int32_t)((uint32_t)a << u);
+}
 
 /* tanh(x) for x in qx (qx >= 4) -> q_out (15 <= q_out <= 30): a 65-entry Q15 table
  * over [0, 4] with linear interpolation; |error| <= 7e-4 for every x (3.8e-4 inside

@@ -1,0 +1,231 @@
+; fx_mul_aN and fx_mul_hN for the AVR build: a · b · 2^-N rounded (aN: ties away from
+; zero, as fx_mul; hN: half up, as fx_mul_shr) and saturated to int32, with N fixed when
+; the entry is assembled. fixmath.h calls them for a shift known at compile time; the
+; native build takes fx_mul_rs_c and fx_mul_shr_c in fixmath.c, which give the same bits
+; (tests/hil/test_fixmath_hil.py compares the two on simavr).
+;
+; The product is the unsigned 32 × 32 of the hardware MUL, column by column, corrected
+; for each negative operand; the rounding is one 64-bit add; the shift by N only picks
+; registers and shifts a five- or six-byte window by at most four bits, and the bytes
+; above the result are compared with its sign to saturate. No int64 library call.
+;
+; avr-gcc's interface: a in r25:r22, b in r21:r18, status pointer in r17:r16; result in
+; r25:r22. Clobbers r0, r18-r27, r30, r31 (call-used); r1 is left 0. No skip over a RET
+; (QEMU 7.2 runs one wrong: see firmware/src/mulhisi3.S).
+
+#define SATURATED 0x01          /* STATUS_SATURATED, proto/messages.h */
+#define E 26                    /* sign fill of the rounded product: its byte 8 */
+#define S 27                    /* sign fill of the result */
+
+; P = a · b, signed 64-bit, in r25:r18 (byte j of P in register 18 + j).
+.macro MUL64
+        push    r2
+        push    r3
+        push    r4
+        push    r5
+        push    r28
+        movw    r2, r18         ; b
+        movw    r4, r20
+        movw    r26, r22        ; a: r26, r27, r30, r31
+        movw    r30, r24
+        clr     r28             ; zero
+        mul     r26, r2         ; column 0
+        movw    r18, r0
+        clr     r20
+        clr     r21
+        MAC     r26, r3, 19     ; column 1
+        MAC     r27, r2, 19
+        clr     r22             ; column 2
+        MAC     r26, r4, 20
+        MAC     r27, r3, 20
+        MAC     r30, r2, 20
+        clr     r23             ; column 3
+        MAC     r26, r5, 21
+        MAC     r27, r4, 21
+        MAC     r30, r3, 21
+        MAC     r31, r2, 21
+        clr     r24             ; column 4
+        MAC     r27, r5, 22
+        MAC     r30, r4, 22
+        MAC     r31, r3, 22
+        clr     r25             ; column 5
+        MAC     r30, r5, 23
+        MAC     r31, r4, 23
+        mul     r31, r5         ; column 6
+        add     r24, r0
+        adc     r25, r1
+        tst     r31             ; a < 0: the unsigned product counted b 2^32 too many
+        brpl    1f
+        sub     r22, r2
+        sbc     r23, r3
+        sbc     r24, r4
+        sbc     r25, r5
+1:      tst     r5              ; b < 0: a 2^32 too many
+        brpl    2f
+        sub     r22, r26
+        sbc     r23, r27
+        sbc     r24, r30
+        sbc     r25, r31
+2:      clr     r1
+        pop     r28
+        pop     r5
+        pop     r4
+        pop     r3
+        pop     r2
+.endm
+
+; registers (lo+1, lo+2, lo+3) += x · y · 2^8·0 aligned at lo (r28 is zero)
+.macro MAC x, y, lo
+        mul     \x, \y
+        add     \lo, r0
+        adc     \lo+1, r1
+        adc     \lo+2, r28
+.endm
+
+.macro SIGN_FILL dst, src      ; dst = 0xff if src < 0 else 0
+        mov     \dst, \src
+        lsl     \dst
+        sbc     \dst, \dst
+.endm
+
+; Bytes lo..hi of P (hi <= 7) shifted right arithmetically by n bits.
+.macro ASR_BYTES lo, hi, n
+        .rept   \n
+        asr     18+\hi
+        .set    j, \hi-1
+        .rept   \hi-\lo
+        ror     18+j
+        .set    j, j-1
+        .endr
+        .endr
+.endm
+
+; Bytes lo..hi of P (hi <= 8, byte 8 being E) shifted left by n bits.
+.macro LSL_BYTES lo, hi, n
+        .rept   \n
+        lsl     18+\lo
+        .set    j, \lo+1
+        .rept   \hi-\lo
+        .if     j == 8
+        rol     E
+        .else
+        rol     18+j
+        .endif
+        .set    j, j+1
+        .endr
+        .endr
+.endm
+
+; Saturate unless byte h (<= 8) of P equals the result's sign fill S.
+.macro CHECK_BYTE h
+        .if     \h == 8
+        cp      E, S
+        .else
+        cp      18+\h, S
+        .endif
+        brne    9f
+.endm
+
+; r25:r22 = bytes w..w+3 of P (a byte past 7 is E).
+.macro RESULT_FROM w
+        .if     \w < 4
+        .if     \w % 2 == 0
+        movw    24, 20+\w
+        movw    22, 18+\w
+        .else
+        mov     25, 21+\w
+        mov     24, 20+\w
+        mov     23, 19+\w
+        mov     22, 18+\w
+        .endif
+        .elseif \w > 4
+        .set    i, 0
+        .rept   4
+        .if     \w+i <= 7
+        mov     22+i, 18+\w+i
+        .else
+        mov     22+i, E
+        .endif
+        .set    i, i+1
+        .endr
+        .endif
+.endm
+
+; One entry: name, shift n (1..62), away (1: ties away from zero, 0: half up).
+.macro MUL_ENTRY name, n, away
+        .section .text.\name, "ax", @progbits
+        .global \name
+\name:
+        MUL64
+        .if     \away           ; P - 1 when P < 0: then adding 2^(n-1) rounds ties down
+        SIGN_FILL E, r25
+        add     r18, E
+        .set    j, 19
+        .rept   7
+        adc     j, E
+        .set    j, j+1
+        .endr
+        .endif
+        .set    k, (\n-1) / 8   ; P + 2^(n-1), from the byte that holds bit n-1
+        subi    18+k, (0x100 - (1 << ((\n-1) % 8))) & 0xff
+        .set    j, k+1
+        .rept   7-k
+        sbci    18+j, 0xff
+        .set    j, j+1
+        .endr
+        SIGN_FILL E, r25
+        .set    B, \n / 8
+        .set    R, \n % 8
+        .if     \n >= 32        ; |a · b| <= 2^62: the result cannot leave int32
+        ASR_BYTES B, 7, R
+        RESULT_FROM B
+        .else
+        .if     R == 0
+        .set    W, B
+        .set    CHECK_FROM, B+4
+        .elseif R <= 4
+        ASR_BYTES B, B+4, R
+        .set    W, B
+        .set    CHECK_FROM, B+4
+        .else                   ; five bits or more: a left shift by 8 - R is shorter
+        LSL_BYTES B, B+5, 8-R
+        .set    W, B+1
+        .set    CHECK_FROM, B+5
+        .endif
+        SIGN_FILL S, 18+W+3
+        .set    h, CHECK_FROM
+        .rept   8-CHECK_FROM
+        CHECK_BYTE h
+        .set    h, h+1
+        .endr
+        .if     CHECK_FROM == 8
+        CHECK_BYTE 8
+        .endif
+        RESULT_FROM W
+        ret
+9:      lsl     E               ; saturated: INT32_MAX or INT32_MIN by the product's sign
+        sbc     E, E
+        mov     r22, E
+        com     r22
+        mov     r23, r22
+        mov     r24, r22
+        ldi     r25, 0x7f
+        eor     r25, E
+        movw    r30, r16
+        ld      S, Z
+        ori     S, SATURATED
+        st      Z, S
+        .endif
+        ret
+.endm
+
+; Every shift, both roundings; --gc-sections keeps the ones called.
+#define ENTRIES(n) MUL_ENTRY fx_mul_a##n, n, 1 $ MUL_ENTRY fx_mul_h##n, n, 0
+ENTRIES(1) $ ENTRIES(2) $ ENTRIES(3) $ ENTRIES(4) $ ENTRIES(5) $ ENTRIES(6) $ ENTRIES(7) $ ENTRIES(8)
+ENTRIES(9) $ ENTRIES(10) $ ENTRIES(11) $ ENTRIES(12) $ ENTRIES(13) $ ENTRIES(14) $ ENTRIES(15) $ ENTRIES(16)
+ENTRIES(17) $ ENTRIES(18) $ ENTRIES(19) $ ENTRIES(20) $ ENTRIES(21) $ ENTRIES(22) $ ENTRIES(23) $ ENTRIES(24)
+ENTRIES(25) $ ENTRIES(26) $ ENTRIES(27) $ ENTRIES(28) $ ENTRIES(29) $ ENTRIES(30) $ ENTRIES(31) $ ENTRIES(32)
+ENTRIES(33) $ ENTRIES(34) $ ENTRIES(35) $ ENTRIES(36) $ ENTRIES(37) $ ENTRIES(38) $ ENTRIES(39) $ ENTRIES(40)
+ENTRIES(41) $ ENTRIES(42) $ ENTRIES(43) $ ENTRIES(44) $ ENTRIES(45) $ ENTRIES(46) $ ENTRIES(47) $ ENTRIES(48)
+ENTRIES(49) $ ENTRIES(50) $ ENTRIES(51) $ ENTRIES(52) $ ENTRIES(53) $ ENTRIES(54) $ ENTRIES(55) $ ENTRIES(56)
+ENTRIES(57) $ ENTRIES(58) $ ENTRIES(59) $ ENTRIES(60) $ ENTRIES(61) $ ENTRIES(62)
