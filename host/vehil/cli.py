@@ -351,6 +351,7 @@ def cmd_profile(args: argparse.Namespace) -> int:
     board = make_board(args.board, timeout_s=args.timeout, **options)
     figures: dict = {"board": args.board, "uart": [vars(profile.uart_setting(b)) for b in bauds]}
     console.print(profile_report.uart_table(figures["uart"]))
+    misses: list[str] = []
     with board.session() as link:
         assert link.info is not None
         figures["info"] = link.info.fields
@@ -358,7 +359,7 @@ def cmd_profile(args: argparse.Namespace) -> int:
             f"probe overhead: {link.info.fields['probe_cycles']} cycles, "
             "measured at boot and subtracted from every step"
         )
-        if not args.no_sweep:
+        if not args.no_sweep and not args.budgets:
             figures["sweep"] = profile.sweep(
                 link,
                 bauds,
@@ -386,9 +387,13 @@ def cmd_profile(args: argparse.Namespace) -> int:
                     f"is 10; its source counts 11). Multiply its wire times by {best:.3f} for a "
                     "chip's."
                 )
-        if not args.no_estimators:
-            figures["estimators"] = profile.estimator_costs(link, args.board)
+        if not args.no_estimators or args.budgets:
+            names = tuple(n for n in (args.estimators or "").split(",") if n)
+            figures["estimators"] = profile.estimator_costs(link, args.board, names=names)
             console.print(profile_report.estimator_table(figures["estimators"], args.board))
+            misses = profile.budget_misses(figures["estimators"])
+            for line in misses:
+                console.print(f"[red]over budget: {line}[/]")
     if args.board == "qemu":
         console.print(
             "[yellow]QEMU ignores the baud rate and times with the host clock: its "
@@ -408,8 +413,8 @@ def cmd_profile(args: argparse.Namespace) -> int:
             console.print(f"[red]slower:[/] {line}")
         if not slower:
             console.print(f"[green]nothing slower than in {args.compare}[/]")
-        return 1 if slower else 0
-    return 0
+        return 1 if slower or (args.budgets and misses) else 0
+    return 1 if args.budgets and misses else 0
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
@@ -517,6 +522,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--count", type=int, default=200, help="exchanges per point at 1 Mbaud")
     p.add_argument("--no-sweep", action="store_true")
     p.add_argument("--no-estimators", action="store_true")
+    p.add_argument(
+        "--estimators", default="", help="comma-separated: profile only these estimators"
+    )
+    p.add_argument(
+        "--budgets",
+        action="store_true",
+        help="estimators only (no sweep); exit 1 if a median misses its spec's budget",
+    )
     p.add_argument("--out", default=None, help="folder for profile.json and plots")
     p.add_argument("--compare", default=None, help="an older profile.json: report what got slower")
     p.set_defaults(func=cmd_profile)

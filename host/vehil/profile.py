@@ -15,6 +15,7 @@ from __future__ import annotations
 import json
 import subprocess
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -184,17 +185,28 @@ def stop_and_wait_s(spec: estimators.EstimatorSpec, baud: int, compute_s: float)
 
 
 def estimator_costs(
-    link: Link, board: str, max_samples: int = 2000, elf: Path = FIRMWARE_ELF
+    link: Link,
+    board: str,
+    max_samples: int = 2000,
+    elf: Path = FIRMWARE_ELF,
+    names: Sequence[str] = (),
 ) -> list[dict[str, Any]]:
-    """Cycles per step of every estimator the board has, in each mode, over a scenario."""
+    """Cycles per step of every estimator the board has (or of `names`), in each mode, over
+    a scenario, stop-and-wait: no receive interrupt lands in a step, as in a real-time task.
+    Each row has the spec's budget for its mode and whether the median keeps it."""
     from vehil import runner
     from vehil.compare import evaluate, series_from_run
 
     assert link.info is not None
     on_board = {e.name: e for e in link.info.estimators}
+    unknown = sorted(set(names) - set(on_board))
+    if unknown:
+        raise VehilError(
+            f"the board has no estimator {', '.join(unknown)}; it has {', '.join(sorted(on_board))}"
+        )
     rows = []
     for name, spec in sorted(estimators.estimators().items()):
-        if name not in on_board:
+        if name not in on_board or (names and name not in names):
             continue
         for mode in spec.modes:
             sc = _scenario_for(name, mode)
@@ -208,7 +220,7 @@ def estimator_costs(
             from rich.console import Console
 
             sc = dataclasses.replace(sc, duration=min(sc.duration, max_samples * sc.sample_time))
-            run = runner.run(sc, board, console=Console(quiet=True))
+            run = runner.run(sc, board, window=1, console=Console(quiet=True))
             if run.error:
                 row["error"] = run.error
                 rows.append(row)
@@ -233,10 +245,24 @@ def estimator_costs(
                 request_bytes=request,
                 reply_bytes=reply,
                 rates=rates,
+                budget=spec.budget.get(mode),
+                within_budget=None
+                if mode not in spec.budget
+                else fig["cycles"]["median"] <= spec.budget[mode],
                 **{f"symbols_{k}": v for k, v in symbol_sizes(f"{name}_", elf).items()},
             )
             rows.append(row)
     return rows
+
+
+def budget_misses(rows: list[dict[str, Any]]) -> list[str]:
+    """The rows whose median misses their budget, or that could not be measured."""
+    return [
+        f"{r['estimator']} {r['mode']}: "
+        + (r["error"] if "error" in r else f"median {r['cycles']['median']:,.0f} > {r['budget']:,}")
+        for r in rows
+        if r.get("within_budget") is False or ("error" in r and r.get("budget"))
+    ]
 
 
 def compare_figures(old: dict[str, Any], new: dict[str, Any], slack: float = 0.10) -> list[str]:

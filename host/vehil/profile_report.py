@@ -91,6 +91,14 @@ def throughput_table(points: list[dict[str, Any]], board: str) -> Table:
     return t
 
 
+def _budget_cell(row: dict[str, Any]) -> str:
+    if row.get("budget") is None:
+        return "–"
+    if row["within_budget"]:
+        return f"[green]{row['budget']:,}[/]"
+    return f"[red]{row['budget']:,} MISSED[/]"
+
+
 def estimator_table(rows: list[dict[str, Any]], board: str) -> Table:
     t = Table(
         title=f"{board}: estimators, cycles per step (chip figures on simavr or a real board)"
@@ -100,6 +108,7 @@ def estimator_table(rows: list[dict[str, Any]], board: str) -> Table:
         "mode",
         "min",
         "median",
+        "budget",
         "max",
         "max µs",
         "flash B",
@@ -122,6 +131,7 @@ def estimator_table(rows: list[dict[str, Any]], board: str) -> Table:
             r["mode"],
             f"{c['min']:,}",
             f"{c['median']:,.0f}",
+            _budget_cell(r),
             f"{c['max']:,}",
             f"{r['step_us_max']:,.0f}",
             f"{r['symbols_flash']:,}",
@@ -132,6 +142,8 @@ def estimator_table(rows: list[dict[str, Any]], board: str) -> Table:
             f"{rate['real_board_hz']:,.0f}",
         )
     t.caption = (
+        "cycles: stop-and-wait, so no receive interrupt lands in a step; budget: the spec's, "
+        "against the median (red: missed). "
         "max Hz: 1 / (wire + worst step) stop-and-wait; pipelined: 1 / max(longer frame, step); "
         "real Mega adds the 16U2's 4.1 ms flush. flash/RAM: the estimator's own symbols "
         "(its state lives in the shared union)."

@@ -254,6 +254,7 @@ def spec_defaults() -> dict[str, float]:
 SPEC = register(
     EstimatorSpec(
         name="acc_kf",
+        budget={"FIXED": 4_000},
         c_id=10,
         title="ACC reference speed: Kalman filter with bias feed-forward and slip correction",
         inputs=(

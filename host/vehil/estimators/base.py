@@ -112,6 +112,9 @@ class EstimatorSpec:
     delay: int = 0  # samples: output k estimates the truth at sample k - delay
     doc: str = ""
     extra: dict[str, object] = field(default_factory=dict)
+    # Cycles per step the estimator must keep on the ATmega2560, by mode: the median over
+    # its scenario, stop-and-wait (`vehil profile --budgets` checks them).
+    budget: Mapping[str, int] = field(default_factory=dict)
 
     def param_values(self, given: Mapping[str, float]) -> dict[str, float]:
         """Defaults overridden by `given`; raises ValueError naming each bad one."""

@@ -196,6 +196,7 @@ def no_update(p: Mapping[str, float]) -> Ecu:
 SPEC = register(
     EstimatorSpec(
         name="eso",
+        budget={"FIXED": 5_000},
         c_id=40,
         title="Quarter-car ECU: conditioning + ESO (A/B) + predictive controller (seed 003)",
         inputs=INPUTS,

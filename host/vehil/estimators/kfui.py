@@ -98,6 +98,7 @@ def ecu(p: Mapping[str, float]) -> Ecu:
 SPEC = register(
     EstimatorSpec(
         name="kfui",
+        budget={"F32": 120_000},
         c_id=41,
         title="Quarter-car ECU: conditioning + KF-UI + predictive controller (seed 003)",
         inputs=INPUTS,

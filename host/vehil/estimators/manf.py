@@ -90,6 +90,7 @@ COMMON = (
 SPEC = register(
     EstimatorSpec(
         name="manf",
+        budget={"FIXED": 800, "F32": 2_000},
         c_id=20,
         title="MANF: modified adaptive nonlinear filter (seed 000)",
         inputs=WHEEL_SPEEDS,

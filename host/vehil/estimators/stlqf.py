@@ -277,6 +277,7 @@ class Rls:
 STLQF = register(
     EstimatorSpec(
         name="stlqf",
+        budget={"FIXED": 60_000, "F32": 110_000},
         c_id=30,
         title="STLQF: mass, drag area and grade from an 11-sample window (seed 002)",
         inputs=INPUTS,
@@ -292,6 +293,7 @@ STLQF = register(
 RLS = register(
     EstimatorSpec(
         name="rls",
+        budget={"FIXED": 10_000},
         c_id=31,
         title="RLS with forgetting: mass, drag area and grade (seed 002's baseline)",
         inputs=INPUTS,

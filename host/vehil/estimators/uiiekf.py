@@ -131,6 +131,7 @@ class Uikf(Uiiekf):
 SPEC = register(
     EstimatorSpec(
         name="uiiekf",
+        budget={"F32": 120_000},
         c_id=21,
         title="UIIEKF: iterated EKF with the brake torque as an unknown input (seed 000)",
         inputs=WHEEL_SPEEDS,
