@@ -3,19 +3,40 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
+import json
+import signal
 import sys
-from collections.abc import Sequence
+import threading
+from collections.abc import Iterator, Sequence
 from pathlib import Path
+from typing import Any
 
-from rich.console import Console
+from rich.markup import escape
 from rich.table import Table
 
 from vehil.boards import DEFAULT_BOARD, VIRTUAL_BOARDS, Board, make_board, open_board
-from vehil.errors import VehilError
+from vehil.errors import Terminated, VehilError
 from vehil.link import BoardInfo, Link
+from vehil.paths import runs_dir
 from vehil.ping import PingSummary, run_ping
+from vehil.terminal import make_console
 
-console = Console()
+console = make_console()
+
+
+def _add_json_option(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--json", action="store_true", help="print the figures as JSON on stdout, not tables"
+    )
+
+
+def _show(args: argparse.Namespace, table: Table, data: Any) -> None:
+    """A table for people or, with --json, its figures for programs."""
+    if getattr(args, "json", False):
+        args.json_out.append(data)
+    else:
+        console.print(table)
 
 
 def _add_board_options(p: argparse.ArgumentParser) -> None:
@@ -38,6 +59,7 @@ def _add_board_options(p: argparse.ArgumentParser) -> None:
         help="inject link faults once the board is up: drop=P,flip=P,dup=P,insert=P "
         "(per byte, both ways), delay_ms=D, reboot_after=N (writes), seed=N",
     )
+    _add_json_option(p)
 
 
 def _add_run_options(p: argparse.ArgumentParser) -> None:
@@ -100,6 +122,15 @@ def ping_table(board: str, s: PingSummary) -> Table:
     return t
 
 
+def _ping_figures(s: PingSummary) -> dict[str, Any]:
+    figures = {k: v for k, v in vars(s).items() if k not in ("rtt_s", "board_interval_s")}
+    figures["rtt_s"] = s.percentiles(s.rtt_s)
+    if len(s.board_interval_s):
+        figures["board_interval_s"] = s.percentiles(s.board_interval_s)
+    figures["wire_limit_s"] = s.wire_limit_s
+    return figures
+
+
 def cmd_build(args: argparse.Namespace) -> int:
     from vehil.build import PARTS, build
 
@@ -113,8 +144,8 @@ def cmd_info(args: argparse.Namespace) -> int:
     with _connect(args) as link:
         _maybe_switch_baud(link, args.baud)
         assert link.info is not None
-        console.print(info_table(args.board, link.info))
         stats = link.stats()
+        _show(args, info_table(args.board, link.info), {"info": link.info.fields, "stats": stats})
         if stats["stack_size"]:
             used = stats["stack_size"] - stats["stack_unused"]
             console.print(f"stack high-water mark: {used} of {stats['stack_size']} B")
@@ -148,7 +179,11 @@ def cmd_flash(args: argparse.Namespace) -> int:
             f"(avrdude {result.seconds:.2f} s in all)"
         )
         assert link.info is not None
-        console.print(info_table(board.name, link.info))
+        _show(
+            args,
+            info_table(board.name, link.info),
+            {"flashed": vars(result), "info": link.info.fields},
+        )
     return 0
 
 
@@ -156,7 +191,7 @@ def cmd_ping(args: argparse.Namespace) -> int:
     with _connect(args) as link:
         _maybe_switch_baud(link, args.baud)
         summary = run_ping(link, count=args.count, size=args.size, window=args.window)
-        console.print(ping_table(args.board, summary))
+        _show(args, ping_table(args.board, summary), _ping_figures(summary))
     return 0
 
 
@@ -168,8 +203,9 @@ def cmd_demo(args: argparse.Namespace) -> int:
 
     with _connect(args) as link:
         assert link.info is not None
-        console.print(info_table(args.board, link.info))
-        console.print(ping_table(args.board, run_ping(link, count=1000, size=16)))
+        _show(args, info_table(args.board, link.info), {"info": link.info.fields})
+        pings = run_ping(link, count=1000, size=16)
+        _show(args, ping_table(args.board, pings), {"ping": _ping_figures(pings)})
         link.configure("passthrough", "F32")
         samples = [struct.pack("<4f", k, 2 * k, 3 * k, 4 * k) for k in range(args.samples)]
         replies = list(link.pipeline(("SAMPLE", {"inputs": x}) for x in samples))
@@ -202,49 +238,62 @@ def _open_recording(path_str: str):  # noqa: ANN202
     return record.read(path)
 
 
-def _finish_run(run, out_dir: Path | None, title: str) -> int:  # noqa: ANN001
+def _firmware(info: dict[str, Any]) -> str | None:
+    """The build id as INFO and the recording give it, `+dirty` included."""
+    if info.get("build_id") is None:
+        return None
+    return f"{info['build_id']:08x}{'+dirty' if info.get('build_dirty') else ''}"
+
+
+def _finish_run(
+    args: argparse.Namespace,
+    run,
+    title: str,
+    input_note: str | None = None,  # noqa: ANN001
+) -> int:
+    """Evaluates a run once; the console, report.md, figures.json and the exit status
+    all say its verdict."""
     from vehil import compare, report
 
     series = compare.series_from_run(run)
     figures = compare.evaluate(series)
     sc = run.prepared.scenario
-    console.print(report.summary_table(figures, title))
     rate = run.done / run.wall_s if run.wall_s else 0.0
+    context = {
+        "title": title,
+        "scenario": sc.name,
+        "board": run.board,
+        "mode": sc.mode,
+        "firmware": _firmware(run.info),
+        "input": input_note,
+        "ended": run.ended,
+        "error": run.error,
+        "wall_s": round(run.wall_s, 3),
+        "samples_per_s": round(rate, 1),
+        "recording": str(run.recording) if run.recording else None,
+        "board_resets": [
+            {"at_sample": r.at_sample, "recovery_s": round(r.recovery_s, 3)} for r in run.resumes
+        ],
+    }
+    _show(args, report.summary_table(figures, title), {**context, **figures.to_json()})
+    expected = f"{run.expected:,}" if run.expected is not None else "?"
     console.print(
-        f"{run.done:,} of {len(run.prepared.inputs):,} samples in {run.wall_s:.2f} s "
+        f"{run.done:,} of {expected} samples in {run.wall_s:.2f} s "
         f"({rate:,.0f} samples/s, {'real time' if run.realtime else 'lockstep'}"
-        f"{', closed loop' if sc.closed_loop else ''}); "
-        f"{run.ended}"
+        f"{', closed loop' if sc.closed_loop else ''}); {run.ended}"
     )
     for r in run.resumes:
         console.print(
             f"[yellow]{r.reason}[/]: before sample {r.at_sample:,} it caught up on the samples "
             f"before (each answer checked) and the run went on after {r.recovery_s * 1e3:.0f} ms"
         )
-    folder = out_dir or (run.recording.parent if run.recording else None)
-    if folder is not None:
-        context = {
-            "title": title,
-            "scenario": sc.name,
-            "board": run.board,
-            "mode": sc.mode,
-            "firmware": run.info.get("build_id") and f"{run.info['build_id']:08x}",
-            "ended": run.ended,
-            "error": run.error,
-            "wall_s": round(run.wall_s, 3),
-            "samples_per_s": round(rate, 1),
-            "recording": str(run.recording) if run.recording else None,
-            "board_resets": [
-                {"at_sample": r.at_sample, "recovery_s": round(r.recovery_s, 3)}
-                for r in run.resumes
-            ],
-        }
-        md = report.write(series, figures, context, folder)
+    if run.recording is not None:
+        md = report.write(series, figures, context, run.recording.parent)
         console.print(f"recording {run.recording}\nreport    {md}")
-    if run.error:
-        console.print(f"[bold red]run {run.ended}:[/] {run.error}")
-        return 130 if run.ended == "interrupted" else 2
-    return 0 if figures["pass"] else 1
+    if input_note:
+        console.print(f"[bold yellow]input cut short:[/] {input_note}")
+    console.print(report.verdict_line(figures))
+    return figures.verdict.exit_status
 
 
 def cmd_run(args: argparse.Namespace) -> int:
@@ -252,15 +301,33 @@ def cmd_run(args: argparse.Namespace) -> int:
 
     sc = scenario.load(args.scenario)
     recording = Path(args.out) / "run.arrow" if args.out else None
+    board = _board(args)
     run = runner.run(
         sc,
-        _board(args),
+        board,
         realtime=args.realtime,
         window=args.window,
         recording=recording,
         timeout_s=args.timeout,
     )
-    return _finish_run(run, None, f"{sc.name}: {sc.estimator.name} ({sc.mode}) on {args.board}")
+    return _finish_run(args, run, f"{sc.name}: {sc.estimator.name} ({sc.mode}) on {args.board}")
+
+
+def _replayed_cut(log_path: Path, accept: bool) -> str | None:
+    """A recording holding less than its drive is refused, or with `accept` said loudly."""
+    from vehil import record
+
+    cut = record.read(log_path).cut_short
+    if cut is None:
+        return None
+    note = f"{log_path}: {cut}; only that part of the drive is replayed"
+    if not accept:
+        raise record.RecordingError(
+            f"{log_path}: {cut}: replaying it would check part of a drive as if it were the "
+            "whole; give --accept-truncated to replay the part there is"
+        )
+    console.print(f"[bold yellow]warning:[/] {note}")
+    return note
 
 
 def cmd_replay(args: argparse.Namespace) -> int:
@@ -276,6 +343,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
     fmt = {".arrow": "vehil", ".csv": "csv", ".mf4": "mdf4", ".mdf": "mdf4"}.get(log_path.suffix)
     if fmt is None:
         raise VehilError(f"{log_path}: unknown log type; give a .arrow recording, .csv or .mf4")
+    note = _replayed_cut(log_path, args.accept_truncated) if fmt == "vehil" else None
     log = dict(data.get("log", {}))
     log.update(path=str(log_path), format=fmt)
     data.pop("plant", None)
@@ -283,10 +351,10 @@ def cmd_replay(args: argparse.Namespace) -> int:
     data.setdefault("scenario", {}).pop("duration", None)
     sc = scenario.parse(data, f"{sc_path} (replaying {log_path.name})", sc_path.resolve())
     recording = Path(args.out) / "run.arrow" if args.out else None
-    run = runner.run(
-        sc, _board(args), realtime=args.realtime, recording=recording, timeout_s=args.timeout
-    )
-    return _finish_run(run, None, f"replay of {log_path.name}: {sc.estimator.name} on {args.board}")
+    board = _board(args)
+    run = runner.run(sc, board, realtime=args.realtime, recording=recording, timeout_s=args.timeout)
+    title = f"replay of {log_path.name}: {sc.estimator.name} on {args.board}"
+    return _finish_run(args, run, title, note)
 
 
 def cmd_compare(args: argparse.Namespace) -> int:
@@ -297,36 +365,43 @@ def cmd_compare(args: argparse.Namespace) -> int:
         if rec.truncated:
             console.print(f"[yellow]warning:[/] {rec.path}: {rec.truncated}")
     d = compare.diff_runs(compare.series_from_recording(a), compare.series_from_recording(b))
-    console.print(report.diff_table(d, str(a.path), str(b.path)))
     within = all(o["max_abs"] <= args.atol for o in d["outputs"].values())
     same_length = d["lengths"][0] == d["lengths"][1]
-    verdict = d["identical"] or (args.atol > 0 and within and same_length)
-    console.print("[green]same results[/]" if verdict else "[bold red]results differ[/]")
-    return 0 if verdict else 1
+    same = d["identical"] or (bool(d["outputs"]) and args.atol > 0 and within and same_length)
+    if not d["outputs"]:
+        only_a, only_b = d["only_in"]
+        says = (
+            f"the runs share no outputs: {a.path} has {', '.join(only_a) or 'none'}, "
+            f"{b.path} has {', '.join(only_b) or 'none'}"
+        )
+    else:
+        says = "same results" if same else "results differ"
+    _show(args, report.diff_table(d, str(a.path), str(b.path)), {**d, "verdict": says})
+    console.print(f"[green]{says}[/]" if same else f"[bold red]{says}[/]")
+    return 0 if same else 1
 
 
 def cmd_scenarios(args: argparse.Namespace) -> int:
     from vehil import scenario
 
     t = Table(title="shipped scenarios (scenarios/)")
-    for col in ("name", "estimator", "mode", "source", "duration", "title"):
+    columns = ("name", "estimator", "mode", "source", "duration", "title")
+    for col in columns:
         t.add_column(col)
+    rows: list[dict[str, Any]] = []
     for path in scenario.shipped():
+        name = str(path.relative_to(scenario.SCENARIO_DIR).with_suffix(""))
         try:
             sc = scenario.load(path)
         except VehilError as exc:
-            t.add_row(path.stem, f"[red]{exc}[/]", "", "", "", "")
+            t.add_row(name, f"[red]{escape(str(exc))}[/]", "", "", "", "")
+            rows.append({"name": name, "error": str(exc)})
             continue
         source = f"plant {sc.plant}" if sc.plant else f"log {sc.log.path.name}"  # type: ignore[union-attr]
-        t.add_row(
-            str(path.relative_to(scenario.SCENARIO_DIR).with_suffix("")),
-            sc.estimator.name,
-            sc.mode,
-            source,
-            f"{sc.duration:g} s",
-            sc.title,
-        )
-    console.print(t)
+        row = (name, sc.estimator.name, sc.mode, source, f"{sc.duration:g} s", sc.title)
+        t.add_row(*row)
+        rows.append({**dict(zip(columns, row, strict=True)), "duration": sc.duration})
+    _show(args, t, rows)
     return 0
 
 
@@ -399,7 +474,9 @@ def cmd_profile(args: argparse.Namespace) -> int:
             "[yellow]QEMU ignores the baud rate and times with the host clock: its "
             "latencies and cycles are not chip figures.[/]"
         )
-    out = Path(args.out or f"runs/profile-{args.board if args.board.isidentifier() else 'port'}")
+    out = Path(
+        args.out or runs_dir() / f"profile-{args.board if args.board.isidentifier() else 'port'}"
+    )
     profile.save(figures, out / "profile.json")
     for png in profile_report.plots(figures, out):
         console.print(f"plot {png}")
@@ -426,9 +503,14 @@ def cmd_bench(args: argparse.Namespace) -> int:
     t = Table(title=f"host-side throughput: {sc.name} through the runner (lockstep)")
     for col in ("board", "samples", "wall s", "samples/s"):
         t.add_column(col, justify="right")
+    rows = []
     for name in args.boards.split(","):
         run = runner.run(sc, name, console=RichConsole(quiet=True), timeout_s=args.timeout)
         rate = run.done / run.wall_s if run.wall_s else 0
+        rows.append(
+            {"board": name, "samples": run.done, "wall_s": run.wall_s, "samples_per_s": rate}
+            | ({"error": run.error} if run.error else {})
+        )
         t.add_row(
             name,
             f"{run.done:,}",
@@ -436,7 +518,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
             f"{rate:,.0f}" if not run.error else f"[red]{run.error}[/]",
         )
     t.caption = "native is the host's own ceiling: a board slower than it is the board or its link"
-    console.print(t)
+    _show(args, t, rows)
     return 0
 
 
@@ -466,6 +548,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         help="PlatformIO env to build the image with (default offline)",
     )
     p.add_argument("--image", help="flash this Intel HEX (or ELF) instead of building one")
+    _add_json_option(p)
     p.add_argument(
         "--baud", type=int, default=115200, help="the bootloader's baud rate (the Mega's: 115200)"
     )
@@ -494,6 +577,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     p = sub.add_parser("replay", help="run a recorded drive (recording, CSV, MDF4) on a board")
     p.add_argument("log", help="a run.arrow (or its folder), a .csv or a .mf4")
     p.add_argument("--scenario", required=True, help="estimator, tolerances and column mapping")
+    p.add_argument(
+        "--accept-truncated",
+        action="store_true",
+        help="replay a recording that holds less than its whole drive (refused by default)",
+    )
     _add_board_options(p)
     _add_run_options(p)
     p.set_defaults(func=cmd_replay)
@@ -502,9 +590,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("run_a")
     p.add_argument("run_b")
     p.add_argument("--atol", type=float, default=0.0, help="accept differences up to this")
+    _add_json_option(p)
     p.set_defaults(func=cmd_compare)
 
     p = sub.add_parser("scenarios", help="list the shipped scenarios")
+    _add_json_option(p)
     p.set_defaults(func=cmd_scenarios)
 
     p = sub.add_parser("reproduce", help="a paper's published figures beside ours")
@@ -538,6 +628,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--boards", default="native,simavr,qemu")
     p.add_argument("--scenario", default="sine")
     p.add_argument("--timeout", type=float, default=2.0)
+    _add_json_option(p)
     p.set_defaults(func=cmd_bench)
 
     # Paper modules import their plants and references (scipy): only when the command
@@ -553,14 +644,43 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if getattr(args, "size", None) == -1:
         args.size = None
+    args.json_out = []
+    console.stderr = bool(getattr(args, "json", False))  # with --json stdout holds JSON alone
     try:
-        return int(args.func(args))
+        with _signals_end_the_command():
+            status = int(args.func(args))
     except VehilError as exc:
-        console.print(f"[bold red]error:[/] {exc}")
+        console.print(f"[bold red]error:[/] {escape(str(exc))}")
         return 2
-    except KeyboardInterrupt:
-        console.print("[yellow]interrupted[/]")
-        return 130
+    except KeyboardInterrupt as exc:
+        number = getattr(exc, "signum", signal.SIGINT)
+        console.print(f"[yellow]interrupted ({signal.Signals(number).name})[/]")
+        return 128 + number
+    finally:
+        console.stderr = False
+    if args.json_out:
+        data = args.json_out[0] if len(args.json_out) == 1 else args.json_out
+        sys.stdout.write(json.dumps(data, indent=2, default=str) + "\n")
+    return status
+
+
+@contextlib.contextmanager
+def _signals_end_the_command() -> Iterator[None]:
+    """SIGTERM (a CI job's timeout) and SIGHUP (its terminal gone) stop a command as Ctrl-C
+    does: a run closes its recording, writes its report and stops the board."""
+
+    def stop(signum: int, frame: object) -> None:
+        raise Terminated(signum)
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    before = {n: signal.signal(n, stop) for n in (signal.SIGTERM, signal.SIGHUP)}
+    try:
+        yield
+    finally:
+        for n, handler in before.items():
+            signal.signal(n, handler)
 
 
 if __name__ == "__main__":

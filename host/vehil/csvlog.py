@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import csv
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -26,13 +26,23 @@ class LogError(VehilError):
 class Columns:
     values: dict[str, np.ndarray]
     units: dict[str, str]
+    lines: np.ndarray | None = field(default=None)  # a CSV's file line of each row
+
+    def place(self, row: int, column: str) -> str:
+        """Where a value is, as the user finds it: a CSV's line, or the row's index."""
+        where = f"line {self.lines[row]}" if self.lines is not None else f"sample {row}"
+        return f"{where}, column {column}"
 
 
 def read_csv(path: Path) -> Columns:
     """A CSV with a header of `name [unit]` cells (unit optional) and numbers below."""
     try:
         with path.open(newline="") as f:
-            rows = list(csv.reader(f))
+            reader = csv.reader(f)
+            rows, lines = [], []
+            for row in reader:
+                rows.append(row)
+                lines.append(reader.line_num)
     except OSError as exc:
         raise LogError(f"{path}: cannot read: {exc.strerror}") from None
     if not rows:
@@ -46,7 +56,7 @@ def read_csv(path: Path) -> Columns:
         units[m["name"]] = m["unit"] or ""
     data = np.empty((len(rows) - 1, len(names)))
     for i, row in enumerate(rows[1:]):
-        line = i + 2
+        line = lines[i + 1]
         if len(row) != len(names):
             raise LogError(
                 f"{path}: line {line} has {len(row)} fields, the header {len(names)}"
@@ -59,4 +69,4 @@ def read_csv(path: Path) -> Columns:
                 raise LogError(
                     f"{path}: line {line}, column {names[j]}: {cell!r} is not a number"
                 ) from None
-    return Columns({n: data[:, j] for j, n in enumerate(names)}, units)
+    return Columns({n: data[:, j] for j, n in enumerate(names)}, units, np.array(lines[1:]))

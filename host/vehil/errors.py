@@ -86,3 +86,11 @@ class VerifyMismatch(FlashError):
         self.address = address
         self.expected = expected
         self.got = got
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM or SIGHUP (a CI timeout, a closed terminal): ends a run as Ctrl-C does."""
+
+    def __init__(self, signum: int):
+        super().__init__(signum)
+        self.signum = signum

@@ -24,6 +24,7 @@ from rich.table import Table
 
 from vehil.boards import open_board
 from vehil.errors import LinkError
+from vehil.terminal import make_console
 
 CLASSES = ("drop", "flip", "dup", "insert")
 RATES = (1e-3, 1e-2)
@@ -118,7 +119,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--board", default="simavr")
     parser.add_argument("--samples", type=int, default=2000, help="SAMPLEs streamed per point")
     args = parser.parse_args(argv)
-    console = Console()
+    console = make_console()
     t = Table(title=f"{args.board}: link faults (per byte, both directions)")
     for col in (
         "class",

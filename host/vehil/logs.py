@@ -89,12 +89,23 @@ def trace_from_log(
         bad = np.flatnonzero(~np.isfinite(x))
         if len(bad):
             raise LogError(
-                f"{log.path}: column {name!r} has {len(bad)} NaN/inf values, the first at "
-                f"sample {bad[0]}: clean the log or drop those rows"
+                f"{log.path}: {cols.place(bad[0], name)}: {x[bad[0]]} is not a finite number "
+                f"({len(bad)} such values in the column): clean the log or drop those rows"
             )
-        t = cols.values.get(f"{name}@t", cols.values.get(log.time))
+        time_name = f"{name}@t" if f"{name}@t" in cols.values else log.time
+        t = cols.values.get(time_name)
         if t is None:
             raise LogError(f"{log.path}: no time column {log.time!r} (set [log] time = ...)")
+        if len(t) < 2:
+            raise LogError(f"{log.path}: column {name!r} has {len(t)} samples; it needs two")
+        back = np.flatnonzero(np.diff(t) <= 0)
+        if len(back):
+            i = back[0] + 1
+            shown = log.time if time_name == log.time else f"{name}'s time stamps"
+            raise LogError(
+                f"{log.path}: {cols.place(i, shown)}: time {t[i]:g} does not increase on "
+                f"{t[i - 1]:g} before it; time must increase strictly"
+            )
         return t, x
 
     t0 = math.inf
@@ -105,8 +116,6 @@ def trace_from_log(
     for n, c in truths.items():
         picked[f"truth.{n}"] = column(c, outputs[n].unit, f"the truth of {n}")
     for t, _ in picked.values():
-        if len(t) < 2 or np.any(np.diff(t) <= 0):
-            raise LogError(f"{log.path}: time must increase strictly and have two samples at least")
         t0, t_end = min(t0, t[0]), max(t_end, t[-1])
     n_samples = int(math.floor((min(t_end - t0, duration)) / sample_time + 1e-9)) + 1
     grid = t0 + np.arange(n_samples) * sample_time

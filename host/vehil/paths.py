@@ -1,5 +1,6 @@
-"""Where the project's sources and build products live."""
+"""Where the project's sources and build products live, and where runs are written."""
 
+import os
 from pathlib import Path
 
 # host/vehil/paths.py -> project root (the package is installed editable from host/).
@@ -17,3 +18,9 @@ MEGA_BOOTLOADER_HEX = Path(
 # The simavr-bootloader board's flash, kept between runs.
 SIMAVR_FLASH_IMAGE = BUILD_DIR / "simavr-bootloader" / "flash.bin"
 FLASH_DIR = BUILD_DIR / "flash"  # Intel HEX images made for avrdude
+
+
+def runs_dir() -> Path:
+    """Where runs and profiles go when no folder is given: `runs/` under the current
+    directory, or $VEHIL_RUNS (the test suite points it at a temporary folder)."""
+    return Path(os.environ.get("VEHIL_RUNS", "runs"))

@@ -227,7 +227,7 @@ def estimator_costs(
                 continue
             fig = evaluate(series_from_run(run))
             request, reply = frame_bytes(spec)
-            compute_s = fig["cycles"]["max"] / F_CPU
+            compute_s = (fig.cycles["max"] or 0) / F_CPU
             rates = {}
             for baud in BAUDS_DEFAULT:
                 exchange = stop_and_wait_s(spec, baud, compute_s)
@@ -239,7 +239,7 @@ def estimator_costs(
             row.update(
                 scenario=sc.name,
                 samples=run.done,
-                cycles=fig["cycles"],
+                cycles=fig.cycles,
                 step_us_max=compute_s * 1e6,
                 paper_hz=1 / sc.sample_time,
                 request_bytes=request,

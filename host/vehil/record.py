@@ -132,6 +132,18 @@ class Recording:
     def inputs(self) -> list[str]:
         return [s["name"] for s in self.header["estimator"]["inputs"]]
 
+    @property
+    def cut_short(self) -> str | None:
+        """Why this recording holds less than its whole drive, or None if it holds it all."""
+        if self.truncated:
+            return self.truncated
+        if self.end is not None and self.end.get("ended") != "completed":
+            return f"its run ended {self.end.get('ended')} after {len(self):,} samples"
+        expected = self.header.get("expected_samples")
+        if expected is not None and len(self) < expected:
+            return f"it holds {len(self):,} of its run's {expected:,} samples"
+        return None
+
 
 def read(path: Path) -> Recording:
     try:

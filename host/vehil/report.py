@@ -6,9 +6,11 @@ import json
 from pathlib import Path
 from typing import Any
 
+from rich.markup import escape
 from rich.table import Table
 
-from vehil.compare import Series
+from vehil.compare import Figures, OutputFigures, Series
+from vehil.scenario import Tolerance
 
 
 def _g(x: float | None, unit: str = "") -> str:
@@ -17,7 +19,27 @@ def _g(x: float | None, unit: str = "") -> str:
     return f"{x:.4g}{(' ' + unit) if unit else ''}"
 
 
-def summary_table(figures: dict[str, Any], title: str) -> Table:
+def verdict_cell(o: OutputFigures) -> str:
+    """One output's verdict, the same words in the console and in report.md."""
+    if o.passed is None:
+        why = o.bit_exact.not_checked_why if o.bit_exact and o.bit_exact.not_checked_why else ""
+        return "not checked" + (f" ({why})" if why and o.reference.passed is None else "")
+    if o.passed is False:
+        return "FAIL " + ", ".join(o.failed())
+    words = "pass, bit-exact" if o.bit_exact is not None and o.bit_exact.passed else "pass"
+    missing = o.not_checked()
+    return words + (f"; {'/'.join(missing)} not checked" if missing else "")
+
+
+def _cells(o: OutputFigures, ref_word: str) -> tuple[str, str, str, str]:
+    ref, truth = o.reference, o.truth
+    tol_s = "-" if ref.tolerance is None else _tolerance(ref.tolerance, ref_word)
+    truth_s = "-" if truth is None else f"{_g(truth.rmse)} / {_g(truth.reference_rmse)}"
+    worst = f" ({ref.worst_k})" if ref.worst_k is not None else ""
+    return tol_s, _g(ref.rmse), _g(ref.max_abs) + worst, truth_s
+
+
+def summary_table(figures: Figures, title: str) -> Table:
     t = Table(title=title)
     t.add_column("output")
     for col in (
@@ -28,57 +50,38 @@ def summary_table(figures: dict[str, Any], title: str) -> Table:
         "result",
     ):
         t.add_column(col, justify="right")
-    for name, o in figures["outputs"].items():
-        unit = o["unit"]
-        tol = o["tolerance"]
-        tol_s = "-" if tol is None else _tolerance(tol, "|ref|")
-        ref = o["reference"]
-        truth = o.get("truth")
-        truth_s = "-" if truth is None else f"{_g(truth['rmse'])} / {_g(truth['reference_rmse'])}"
-        failed = [
-            what
-            for what, part in (("ref", ref), ("truth", truth), ("bits", o.get("bit_exact")))
-            if part is not None and not part.get("pass", True)
-        ]
-        bit = o.get("bit_exact")
-        verdict = "[bold red]FAIL " + ", ".join(failed) + "[/]" if failed else "[green]pass[/]"
-        if bit is not None and not failed:
-            verdict = "[green]pass, bit-exact[/]"
-        worst = f" ({ref['worst_k']})" if ref["worst_k"] is not None else ""
+    for name, o in figures.outputs.items():
+        style = {True: "green", False: "bold red", None: "yellow"}[o.passed]
         t.add_row(
-            f"{name} [{unit}]" if unit else name,
-            tol_s,
-            _g(ref["rmse"]),
-            _g(ref["max_abs"]) + worst,
-            truth_s,
-            verdict if tol is not None else "-",
+            f"{name} [{o.unit}]" if o.unit else name,
+            *_cells(o, "|ref|"),
+            f"[{style}]{escape(verdict_cell(o))}[/]",
         )
-    c, r = figures["cycles"], figures["rtt_ms"]
-    flags = ", ".join(f"{k} x{v}" for k, v in figures["status"].items() if v) or "none"
+    c, r = figures.cycles, figures.rtt_ms
+    flags = ", ".join(f"{k} x{v}" for k, v in figures.status.items() if v) or "none"
     t.caption = (
-        f"{figures['samples']:,} samples; cycles/step min {_g(c['min'])} median {_g(c['median'])} "
+        f"{figures.samples:,} samples; cycles/step min {_g(c['min'])} median {_g(c['median'])} "
         f"max {_g(c['max'])}{_stack(figures)}; round trip p50 {_g(r['p50'])} ms "
-        f"p99 {_g(r['p99'])} ms; late {figures['late']}; status flags: {flags}"
+        f"p99 {_g(r['p99'])} ms; late {figures.late}; status flags: {flags}"
     )
     return t
 
 
-def _stack(figures: dict[str, Any]) -> str:
-    b = figures.get("stack_bytes")
+def verdict_line(figures: Figures) -> str:
+    """The run's verdict for the console (rich markup)."""
+    style = "bold green" if figures.passed else "bold red"
+    v = figures.verdict
+    return f"[{style}]{v.word}[/]" + (f": {escape(v.reason)}" if v.reason else "")
+
+
+def _stack(figures: Figures) -> str:
+    b = figures.stack_bytes
     return "" if b is None else f"; stack high-water {b:,} B since boot"
 
 
-def _tolerance(tol: dict[str, Any], ref: str) -> str:
-    since = f" from {tol['from_s']:g} s" if tol.get("from_s") else ""
-    return f"{tol['abs']:g} + {tol['rel']:g}·{ref}{since}"
-
-
-def _row_cells(o: dict[str, Any]) -> list[str]:
-    tol, ref, truth = o["tolerance"], o["reference"], o.get("truth")
-    tol_s = "-" if tol is None else _tolerance(tol, "abs(ref)")
-    truth_s = "-" if truth is None else f"{_g(truth['rmse'])} / {_g(truth['reference_rmse'])}"
-    verdict = "pass" if ref["pass"] else "FAIL"
-    return [tol_s, _g(ref["rmse"]), _g(ref["max_abs"]), verdict, truth_s]
+def _tolerance(tol: Tolerance, ref: str) -> str:
+    since = f" from {tol.from_s:g} s" if tol.from_s else ""
+    return f"{tol.abs:g} + {tol.rel:g}·{ref}{since}"
 
 
 def _plots(s: Series, out: Path) -> list[tuple[str, str]]:
@@ -143,32 +146,44 @@ def _plots(s: Series, out: Path) -> list[tuple[str, str]]:
     return made
 
 
-def write(s: Series, figures: dict[str, Any], context: dict[str, Any], out: Path) -> Path:
+def write(s: Series, figures: Figures, context: dict[str, Any], out: Path) -> Path:
     """report.md, figures.json and PNGs into `out`; returns the Markdown file."""
     out.mkdir(parents=True, exist_ok=True)
-    (out / "figures.json").write_text(json.dumps({**context, **figures}, indent=2, default=str))
+    data = {**context, **figures.to_json()}
+    (out / "figures.json").write_text(json.dumps(data, indent=2, default=str))
     plots = _plots(s, out)
     lines = [f"# {context.get('title', 'vehil run')}", ""]
-    for k in ("scenario", "board", "mode", "firmware", "ended", "error", "wall_s", "recording"):
+    for k in (
+        "scenario",
+        "board",
+        "mode",
+        "firmware",
+        "input",
+        "ended",
+        "error",
+        "wall_s",
+        "recording",
+    ):
         if context.get(k) is not None:
             lines.append(f"- **{k}**: {context[k]}")
     lines += [
         "",
-        "| output | tolerance | RMSE vs ref | max abs vs ref | pass "
-        "| RMSE vs truth (board / ref) |",
+        "| output | tolerance | RMSE vs ref | max abs vs ref (k) "
+        "| RMSE vs truth (board / ref) | result |",
         "|---|---|---|---|---|---|",
     ]
-    for name, o in figures["outputs"].items():
-        cells = _row_cells(o)
-        lines.append(f"| {name} [{o['unit']}] | " + " | ".join(cells) + " |")
-    c, r = figures["cycles"], figures["rtt_ms"]
+    for name, o in figures.outputs.items():
+        cells = [*_cells(o, "abs(ref)"), verdict_cell(o)]
+        lines.append(f"| {name} [{o.unit}] | " + " | ".join(cells) + " |")
+    c, r = figures.cycles, figures.rtt_ms
     lines += [
         "",
         f"Cycles per step: min {_g(c['min'])}, median {_g(c['median'])}, max {_g(c['max'])}"
         f"{_stack(figures)}. Round trip: p50 {_g(r['p50'])} ms, p99 {_g(r['p99'])} ms. "
-        f"Late samples: {figures['late']}.",
+        f"Late samples: {figures.late}.",
         "",
-        f"Overall: **{'PASS' if figures['pass'] else 'FAIL'}**",
+        f"Overall: **{figures.verdict.word}**"
+        + (f": {figures.verdict.reason}" if figures.verdict.reason else ""),
         "",
     ]
     for caption, file in plots:
@@ -191,9 +206,18 @@ def diff_table(d: dict[str, Any], a: str, b: str) -> Table:
             f"{o['max_abs']:.4g}",
         )
     ca, cb = d["cycles_median"]["a"], d["cycles_median"]["b"]
+    if d["cycles_comparable"]:
+        cycles = f"median cycles/step {_g(ca)} -> {_g(cb)}" + (
+            f" ({(cb - ca) / ca * 100:+.1f} %)" if ca and cb else ""
+        )
+    else:
+        board_a, board_b = d["boards"]
+        cycles = (
+            f"median cycles/step {_g(ca)} on {board_a}, {_g(cb)} on {board_b}: "
+            "different boards, not compared"
+        )
     t.caption = (
         f"{d['samples']:,} samples compared (lengths {d['lengths'][0]:,} and {d['lengths'][1]:,}); "
-        f"median cycles/step {_g(ca)} -> {_g(cb)}"
-        + (f" ({(cb - ca) / ca * 100:+.1f} %)" if ca and cb else "")
+        + cycles
     )
     return t

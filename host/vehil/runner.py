@@ -12,6 +12,7 @@ recording keeps every sample up to that point and says how the run ended.
 from __future__ import annotations
 
 import dataclasses
+import signal
 import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
@@ -26,11 +27,13 @@ from rich.text import Text
 
 from vehil import plants, record
 from vehil.boards import Board, make_board, open_board
-from vehil.errors import BoardError, BoardReset, VehilError
+from vehil.errors import BoardError, BoardReset, BoardStartError, LinkError, VehilError
 from vehil.link import BoardInfo, Link, Reply
 from vehil.logs import trace_from_log
+from vehil.paths import runs_dir
 from vehil.plants.base import Trace
 from vehil.scenario import Scenario, ScenarioError
+from vehil.terminal import make_console
 
 
 @dataclass
@@ -70,6 +73,8 @@ class Run:
     native_out: np.ndarray | None = None  # FIXED with bit_exact: the native build's outputs
     resumes: list[Resume] = field(default_factory=list)  # board resets survived
     stack_bytes: int | None = None  # the board's stack high-water since boot, after the run
+    expected: int | None = None  # samples the run was to have
+    stop_signal: int | None = None  # the signal that interrupted it (SIGINT: Ctrl-C)
 
     @property
     def done(self) -> int:
@@ -332,13 +337,16 @@ def native_outputs(scenario: Scenario) -> np.ndarray:
     return np.array(outs).reshape(len(outs), len(scenario.estimator.outputs))
 
 
-def default_recording_path(scenario: Scenario, board: str, root: Path = Path("runs")) -> Path:
+def default_recording_path(scenario: Scenario, board: str, root: Path | None = None) -> Path:
+    root = root or runs_dir()
     stamp = datetime.now(UTC).strftime("%Y%m%dT%H%M%SZ")
     board_tag = board if board.isidentifier() else "port"
     return root / f"{scenario.name}-{board_tag}-{scenario.mode.lower()}-{stamp}" / "run.arrow"
 
 
-def _header(sc: Scenario, board: str, realtime: bool, info: BoardInfo) -> dict[str, Any]:
+def _header(
+    sc: Scenario, board: str, realtime: bool, info: BoardInfo, expected: int
+) -> dict[str, Any]:
     spec = sc.estimator
 
     def signals(sigs: tuple) -> list[dict[str, Any]]:
@@ -363,6 +371,7 @@ def _header(sc: Scenario, board: str, realtime: bool, info: BoardInfo) -> dict[s
         "tolerances": {n: vars(t) for n, t in sc.tolerances.items()},
         "board": {"name": board, "realtime": realtime, "info": info.fields},
         "firmware": {"version": info.firmware_version, "build_id": info.fields.get("build_id")},
+        "expected_samples": expected,
         "started": datetime.now(UTC).isoformat(timespec="seconds"),
     }
 
@@ -378,8 +387,9 @@ def run(
     timeout_s: float = 2.0,
 ) -> Run:
     """Runs a scenario on a board and records it. Never raises for a run that started:
-    the returned Run says how it ended, and the recording holds what was done."""
-    console = console or Console(stderr=True)
+    the returned Run says how it ended, and the recording holds what was done. A board
+    that cannot be started raises BoardStartError: there was no run."""
+    console = console or make_console(stderr=True)
     source = _source(scenario)
     spec = scenario.estimator
     n_out = len(spec.outputs)
@@ -402,7 +412,7 @@ def run(
     late: list[bool] = []
     resumes: list[Resume] = []
     stack_bytes: int | None = None
-    ended, error = "completed", None
+    ended, error, stop_signal = "completed", None, None
     recorder: record.Recorder | None = None
     info: dict[str, Any] = {}
     started = time.perf_counter()
@@ -412,7 +422,7 @@ def run(
             info = link.info.fields
             path = recording or default_recording_path(scenario, board_name)
             schema = record.columns([s.name for s in spec.inputs], names, truth_names)
-            header = _header(scenario, board_name, realtime, link.info)
+            header = _header(scenario, board_name, realtime, link.info, source.total)
             recorder = record.Recorder(path, schema, header)
             with _progress(console) as progress:
                 task = progress.add_task(
@@ -460,10 +470,18 @@ def run(
             stats = link.stats()
             if stats["stack_size"]:
                 stack_bytes = stats["stack_size"] - stats["stack_unused"]
-    except KeyboardInterrupt:
-        ended, error = "interrupted", f"stopped by Ctrl-C after {len(outs)} samples"
+    except KeyboardInterrupt as exc:
+        stop_signal = getattr(exc, "signum", signal.SIGINT)
+        by = "Ctrl-C" if stop_signal == signal.SIGINT else signal.Signals(stop_signal).name
+        ended, error = (
+            "interrupted",
+            f"stopped by {by} after {len(outs):,} of {source.total:,} samples",
+        )
     except VehilError as exc:
-        ended, error = "failed", f"after {len(outs)} samples: {exc}"
+        if recorder is None and isinstance(exc, BoardStartError):
+            raise  # no board, no run: an error, not a failed run's report
+        lost = "board lost after" if isinstance(exc, LinkError) else "after"
+        ended, error = "failed", f"{lost} {len(outs):,} of {source.total:,} samples: {exc}"
     finally:
         wall = time.perf_counter() - started
         if recorder is not None:
@@ -474,6 +492,7 @@ def run(
                     "wall_s": wall,
                     "resumes": [dataclasses.asdict(r) for r in resumes],
                     "stack_bytes": stack_bytes,
+                    "signal": stop_signal,
                 }
             )
     prepared = source.prepared()
@@ -494,4 +513,6 @@ def run(
         native_out=native,
         resumes=resumes,
         stack_bytes=stack_bytes,
+        expected=source.total,
+        stop_signal=stop_signal,
     )

@@ -19,6 +19,7 @@ import pytest
 from rich.console import Console
 
 from vehil.boards import open_board
+from vehil.compare import Figures
 from vehil.link import Link
 
 
@@ -27,12 +28,12 @@ class ScenarioResult:
     """A finished run with its figures, its recording and its report folder."""
 
     run: Any
-    figures: dict[str, Any]
+    figures: Figures
     recording: Path | None
 
     @property
     def passed(self) -> bool:
-        return self.run.error is None and bool(self.figures["pass"])
+        return self.figures.passed
 
     def assert_passed(self) -> None:
         if self.passed:
@@ -41,7 +42,7 @@ class ScenarioResult:
 
         console = Console(width=160, record=True)
         console.print(summary_table(self.figures, self.run.prepared.scenario.name))
-        why = self.run.error or "outputs outside tolerance"
+        why = str(self.figures.verdict)
         raise AssertionError(f"{why} (recording {self.recording})\n{console.export_text()}")
 
 

@@ -81,7 +81,7 @@ def test_flash_through_the_bootloader_then_the_flashed_firmware_runs_a_scenario(
     board = SimavrBootloaderBoard(flash_image=flash_bin, timeout_s=3.0)
     run = runner.run(sine, board, recording=tmp_path / "run.arrow", console=Console(quiet=True))
     assert run.error is None and run.done == 1000
-    assert compare.evaluate(compare.series_from_run(run))["pass"]
+    assert compare.evaluate(compare.series_from_run(run)).passed
 
 
 def test_a_corrupted_image_fails_verification_naming_address_expected_and_got(

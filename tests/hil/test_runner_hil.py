@@ -17,15 +17,15 @@ def test_the_synthetic_scenario_passes_on_each_virtual_board(run_scenario, board
     result.assert_passed()
     assert result.run.done == int(duration / 0.002)
     # The board's stack high-water, read after the run, travels into the figures.
-    assert 100 < result.figures["stack_bytes"] < result.run.info["free_ram"]
-    assert record.read(result.recording).end["stack_bytes"] == result.figures["stack_bytes"]
+    assert 100 < result.figures.stack_bytes < result.run.info["free_ram"]
+    assert record.read(result.recording).end["stack_bytes"] == result.figures.stack_bytes
 
 
 def test_fixed_point_on_the_chip_is_bit_exact_with_the_native_build(run_scenario) -> None:  # noqa: ANN001
     result = run_scenario("sine-fixed", board="simavr", duration=4.0)
     result.assert_passed()
-    assert result.figures["outputs"]["y"]["bit_exact"]["mismatches"] == 0
-    assert 0 < result.figures["cycles"]["median"] < 1000
+    assert result.figures.outputs["y"].bit_exact.mismatches == 0
+    assert 0 < result.figures.cycles["median"] < 1000
 
 
 def test_a_closed_loop_through_the_chip_follows_the_native_build_exactly(run_scenario) -> None:  # noqa: ANN001
@@ -38,7 +38,7 @@ def test_a_closed_loop_through_the_chip_follows_the_native_build_exactly(run_sce
     b = compare.series_from_recording(record.read(chip.recording))
     assert compare.diff_runs(a, b)["identical"]
     # The loop really runs through the board: its truth tracks the set point.
-    assert chip.figures["outputs"]["y"]["truth"]["rmse"] < 0.03
+    assert chip.figures.outputs["y"].truth.rmse < 0.03
 
 
 def test_real_time_pacing_holds_the_sample_rate(run_scenario) -> None:  # noqa: ANN001

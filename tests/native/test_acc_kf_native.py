@@ -14,7 +14,7 @@ from vehil.estimators import acc_kf
 def test_c_follows_the_reference(run_scenario, name, limit) -> None:  # noqa: ANN001
     result = run_scenario(name, board="native", duration=30.0)
     result.assert_passed()
-    assert result.figures["outputs"]["v"]["reference"]["max_abs"] < limit
+    assert result.figures.outputs["v"].reference.max_abs < limit
 
 
 def test_an_out_of_range_parameter_is_refused_with_its_index(built) -> None:  # noqa: ANN001
@@ -30,4 +30,4 @@ def test_the_four_variants_run_on_the_board_as_on_the_host(run_scenario) -> None
     for corr1, corr2 in ((0, 0), (1, 0), (0, 1)):
         params = sc.params | {"corr1": float(corr1), "corr2": float(corr2)}
         result = run_scenario(dataclasses.replace(sc, params=params), board="native", duration=20.0)
-        assert result.figures["outputs"]["v"]["reference"]["max_abs"] < 1e-4
+        assert result.figures.outputs["v"].reference.max_abs < 1e-4

@@ -22,7 +22,7 @@ def test_c_follows_the_reference(run_scenario, name: str, x_limit: float) -> Non
     result = run_scenario(name, board="native")
     result.assert_passed()
     for out in ("x_s", "x_us", "x_r"):
-        assert result.figures["outputs"][out]["reference"]["max_abs"] < x_limit
+        assert result.figures.outputs[out].reference.max_abs < x_limit
 
 
 def test_the_closed_loop_fixed_point_stays_within_its_tolerance(run_scenario) -> None:  # noqa: ANN001

@@ -57,8 +57,8 @@ def test_a_tolerance_too_tight_fails_and_names_the_worst_sample(run_scenario) ->
     tight = dataclasses.replace(sc, tolerances={"y": scenario.Tolerance(abs=0.0, rel=1e-9)})
     result = run_scenario(tight, board="native", duration=1.0)
     assert not result.passed
-    ref = result.figures["outputs"]["y"]["reference"]
-    assert ref["outside_tolerance"] > 0 and ref["worst_k"] is not None
+    ref = result.figures.outputs["y"].reference
+    assert ref.outside_tolerance > 0 and ref.worst_k is not None
 
 
 def test_a_loop_that_gets_wrong_feedback_drifts_off(run_scenario) -> None:  # noqa: ANN001

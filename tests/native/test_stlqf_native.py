@@ -21,7 +21,7 @@ from vehil.estimators import stlqf
 def test_c_follows_the_reference(run_scenario, name, output, limit) -> None:  # noqa: ANN001
     result = run_scenario(name, board="native", duration=45.0)
     result.assert_passed()
-    assert result.figures["outputs"][output]["reference"]["max_abs"] < limit
+    assert result.figures.outputs[output].reference.max_abs < limit
 
 
 def test_a_weight_matrix_that_is_not_positive_definite_is_refused_with_a11(built) -> None:  # noqa: ANN001
@@ -34,7 +34,7 @@ def test_a_weight_matrix_that_is_not_positive_definite_is_refused_with_a11(built
 
 def test_the_prefilter_in_c_follows_the_reference(run_scenario) -> None:  # noqa: ANN001
     result = run_scenario("noisy-prefilter", board="native", duration=20.0)
-    assert result.figures["outputs"]["m"]["reference"]["rmse"] < 5.0
+    assert result.figures.outputs["m"].reference.rmse < 5.0
 
 
 @pytest.mark.parametrize(

@@ -24,9 +24,9 @@ from vehil.estimators import upf
 def test_c_follows_the_reference(run_scenario, name, duration) -> None:  # noqa: ANN001
     result = run_scenario(name, board="native", duration=duration)
     result.assert_passed()
-    outputs = result.figures["outputs"]
-    assert outputs["vx"]["reference"]["max_abs"] < 2e-3
-    assert max(outputs[f"fy{i}"]["reference"]["max_abs"] for i in range(1, 5)) < 0.1
+    outputs = result.figures.outputs
+    assert outputs["vx"].reference.max_abs < 2e-3
+    assert max(outputs[f"fy{i}"].reference.max_abs for i in range(1, 5)) < 0.1
 
 
 @pytest.mark.parametrize(

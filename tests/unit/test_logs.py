@@ -44,7 +44,7 @@ def test_a_csv_log_is_resampled_onto_the_sample_grid(tmp_path) -> None:  # noqa:
         (
             "t [s],speed\n0,1\n0.1,nan\n",
             {},
-            r"column 'speed' has 1 NaN/inf values, the first at sample 1",
+            r"line 3, column speed: nan is not a finite number \(1 such values",
         ),
         (
             "t [s],speed\n0,1\n0.1,2\n0.2\n",
@@ -53,7 +53,7 @@ def test_a_csv_log_is_resampled_onto_the_sample_grid(tmp_path) -> None:  # noqa:
         ),
         ("t [s],speed\n0,1\n0.1,fast\n", {}, r"line 3, column speed: 'fast' is not a number"),
         ("time,speed\n0,1\n0.1,2\n", {}, r"no time column 't'"),
-        ("t,speed\n0,1\n0,2\n", {}, r"time must increase strictly"),
+        ("t,speed\n0,1\n0,2\n", {}, r"line 3, column t: time 0 does not increase on 0 before"),
         ("", {}, r"empty file"),
     ],
 )
@@ -62,6 +62,16 @@ def test_bad_logs_are_refused_with_file_and_place(tmp_path, text, kw, message) -
     with pytest.raises(LogError, match=message) as exc:
         trace_from_log(log(path, **kw), SPEC, 0.05, math.inf)
     assert str(path) in str(exc.value)
+
+
+def test_a_nan_and_a_time_step_back_are_named_by_the_file_line_and_column(tmp_path) -> None:  # noqa: ANN001
+    rows = [f"{k * 0.1:.1f},{k}" for k in range(60)]
+    rows[50] = "5.0,nan"  # sample 50: the file's line 52, after the header
+    with pytest.raises(LogError, match=r"line 52, column speed: nan"):
+        trace_from_log(log(csv(tmp_path, "t [s],speed\n" + "\n".join(rows))), SPEC, 0.1, 10)
+    rows[50] = "4.9,50"  # time goes back on line 52
+    with pytest.raises(LogError, match=r"line 52, column t: time 4.9 does not increase on 4.9"):
+        trace_from_log(log(csv(tmp_path, "t [s],speed\n" + "\n".join(rows))), SPEC, 0.1, 10)
 
 
 def test_an_mdf4_log_gives_its_channels_with_their_units(tmp_path) -> None:  # noqa: ANN001

@@ -117,7 +117,7 @@ def test_a_tolerance_from_a_time_on_leaves_the_start_unchecked() -> None:
         tolerances=sc.tolerances,
     )
     board[2, 0] = 5.0  # at 0.02 s: not checked
-    assert compare.evaluate(series)["outputs"]["y"]["reference"]["pass"]
+    assert compare.evaluate(series).outputs["y"].reference.passed
     board[7, 0] = 5.0  # at 0.07 s
-    verdict = compare.evaluate(series)["outputs"]["y"]["reference"]
-    assert not verdict["pass"] and verdict["outside_tolerance"] == 1
+    verdict = compare.evaluate(series).outputs["y"].reference
+    assert verdict.passed is False and verdict.outside_tolerance == 1

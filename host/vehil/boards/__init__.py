@@ -12,13 +12,14 @@ from __future__ import annotations
 from vehil.boards.base import Board
 from vehil.boards.native import NativeBoard
 from vehil.boards.qemu import QemuBoard, QemuEvBoard
-from vehil.boards.serialport import SerialBoard
+from vehil.boards.serialport import SerialBoard, ports_seen
 from vehil.boards.simavr import (
     SimavrBoard,
     SimavrBootloaderBoard,
     SimavrEvBoard,
     SimavrRealtimeBoard,
 )
+from vehil.errors import NoPort
 
 VIRTUAL_BOARDS: dict[str, type[Board]] = {
     "simavr": SimavrBoard,
@@ -32,9 +33,18 @@ VIRTUAL_BOARDS: dict[str, type[Board]] = {
 DEFAULT_BOARD = "simavr"
 
 
+def _looks_like_a_port(spec: str) -> bool:
+    return "/" in spec or "://" in spec or spec.upper().startswith("COM") or spec.startswith("\\")
+
+
 def make_board(spec: str, **options: object) -> Board:
     if spec in VIRTUAL_BOARDS:
         return VIRTUAL_BOARDS[spec](**options)  # type: ignore[arg-type]
+    if not _looks_like_a_port(spec):
+        raise NoPort(
+            f"no board {spec!r}: give one of {', '.join(VIRTUAL_BOARDS)}, or a serial port "
+            f"or pyserial URL (ports seen: {ports_seen()})"
+        )
     return SerialBoard(spec, **options)  # type: ignore[arg-type]
 
 

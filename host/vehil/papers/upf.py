@@ -15,6 +15,7 @@ from __future__ import annotations
 import dataclasses
 import time
 from collections.abc import Callable, Mapping
+from typing import Any
 
 import numpy as np
 from rich.console import Console
@@ -177,6 +178,11 @@ def upf_timing(ns: tuple[int, ...] = (25, 50, 100, 200), steps: int = 200) -> di
     return out
 
 
+def _truth_rmse(o: Any) -> float:
+    assert o.truth is not None and o.truth.rmse is not None
+    return o.truth.rmse
+
+
 def board_figures(board: str) -> dict[str, dict[str, float]]:
     from vehil import compare, runner
 
@@ -187,14 +193,14 @@ def board_figures(board: str) -> dict[str, dict[str, float]]:
         if r.error:
             raise RuntimeError(r.error)
         figs = compare.evaluate(compare.series_from_run(r))
-        diff = {k: v["reference"]["max_abs"] for k, v in figs["outputs"].items()}
+        diff = {k: float(v.reference.max_abs or 0.0) for k, v in figs.outputs.items()}
         found[name] = {
             "cycles_median": float(np.median(r.cycles)),
             "cycles_max": float(np.max(r.cycles)),
             "stack_bytes": float(r.stack_bytes or 0),
-            "truth_rms_fy": max(figs["outputs"][f"fy{i}"]["truth"]["rmse"] for i in range(1, 5)),
+            "truth_rms_fy": max(_truth_rmse(figs.outputs[f"fy{i}"]) for i in range(1, 5)),
             "samples": float(r.done),
-            "pass": float(bool(figs["pass"])),
+            "pass": float(figs.passed),
             **{f"max_abs_{k}": v for k, v in diff.items()},
         }
     return found

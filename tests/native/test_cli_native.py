@@ -1,0 +1,112 @@
+"""The command line on the native board: what it says, and its exit status."""
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from vehil import cli, record
+from vehil.paths import PROJECT_ROOT
+
+VEHIL = [sys.executable, "-m", "vehil"]
+
+
+@pytest.fixture(scope="module")
+def recorded(built, tmp_path_factory) -> Path:  # noqa: ANN001
+    """A whole 10,000-sample run of `sine` on the native board."""
+    out = tmp_path_factory.mktemp("sine")
+    assert cli.main(["run", "sine", "--board", "native", "--out", str(out)]) == 0
+    return out / "run.arrow"
+
+
+def test_replaying_a_cut_recording_is_an_error_unless_accepted(recorded, tmp_path, capsys) -> None:  # noqa: ANN001
+    cut = tmp_path / "cut.arrow"
+    data = recorded.read_bytes()
+    cut.write_bytes(data[: len(data) // 2])
+    held = len(record.read(cut))
+    assert 0 < held < 10_000
+    assert cli.main(["replay", str(cut), "--scenario", "sine", "--board", "native"]) == 2
+    said = capsys.readouterr().out
+    assert "cut short" in said and "--accept-truncated" in said and "PASS" not in said
+    out = tmp_path / "accepted"
+    args = ["replay", str(cut), "--scenario", "sine", "--board", "native", "--out", str(out)]
+    assert cli.main([*args, "--accept-truncated"]) == 0
+    said = capsys.readouterr().out
+    assert said.count("cut short") >= 2  # before the run and beside its verdict
+    assert "cut short" in (out / "report.md").read_text()
+    assert len(record.read(out / "run.arrow")) == held
+
+
+def test_an_unknown_board_is_an_error_before_any_table(capsys) -> None:  # noqa: ANN001
+    assert cli.main(["run", "sine", "--board", "nonsense"]) == 2
+    said = capsys.readouterr().out
+    assert said.lstrip().startswith("error: no board 'nonsense'")
+    assert "simavr, " in said and "native" in said and "ports seen:" in said
+    assert "RMSE" not in said and "samples" not in said
+
+
+def test_tables_keep_their_full_width_off_a_terminal(built) -> None:  # noqa: ANN001
+    env = {k: v for k, v in os.environ.items() if k != "COLUMNS"}
+    out = subprocess.run(
+        [*VEHIL, "scenarios"], capture_output=True, text=True, check=True, env=env
+    ).stdout
+    assert max(len(line) for line in out.splitlines()) > 120
+    assert "…" not in out
+
+
+@pytest.mark.parametrize(
+    "command",
+    [
+        ["scenarios"],
+        ["info", "--board", "native"],
+        ["ping", "--board", "native", "--count", "20"],
+        ["demo", "--board", "native", "--samples", "50"],
+        ["bench", "--boards", "native", "--scenario", "sine"],
+        ["run", "sine", "--board", "native"],
+        ["compare", "RUN", "RUN"],
+    ],
+)
+def test_every_command_that_prints_a_table_gives_json(recorded, command, capsys) -> None:  # noqa: ANN001
+    command = [str(recorded) if c == "RUN" else c for c in command]
+    cli.main([*command, "--json"])
+    out = capsys.readouterr().out
+    data = json.loads(out)  # stdout holds the JSON alone
+    assert data
+    if command[0] == "run":
+        assert data["verdict"]["word"] == "PASS" and data["outputs"]["y"]["passed"] is True
+
+
+def test_compare_of_runs_with_no_output_in_common_says_so(recorded, tmp_path, capsys) -> None:  # noqa: ANN001
+    other = tmp_path / "acc"
+    assert cli.main(
+        ["run", "braking/manf-hard-stop", "--board", "native", "--out", str(other)]
+    ) in (0, 1)
+    capsys.readouterr()
+    assert cli.main(["compare", str(recorded), str(other)]) == 1
+    said = capsys.readouterr().out
+    assert "share no outputs" in said and "results differ" not in said
+
+
+def test_the_report_keeps_the_firmware_build_as_info_gives_it(recorded) -> None:  # noqa: ANN001
+    assert cli._firmware({"build_id": 0x1234ABCD, "build_dirty": 1}) == "1234abcd+dirty"
+    assert cli._firmware({"build_id": 0x1234ABCD, "build_dirty": 0}) == "1234abcd"
+    info = record.read(recorded).header["board"]["info"]
+    report = (recorded.parent / "report.md").read_text()
+    assert f"- **firmware**: {cli._firmware(info)}\n" in report
+
+
+def test_runs_that_name_no_folder_stay_out_of_the_checkout(built) -> None:  # noqa: ANN001
+    import dataclasses
+
+    from rich.console import Console
+
+    from vehil import runner, scenario
+
+    sc = dataclasses.replace(scenario.load("sine"), duration=0.1)
+    run = runner.run(sc, "native", console=Console(quiet=True))
+    assert run.recording is not None
+    assert run.recording.resolve().is_relative_to(Path(os.environ["VEHIL_RUNS"]).resolve())
+    assert not run.recording.resolve().is_relative_to(PROJECT_ROOT)

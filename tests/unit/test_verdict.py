@@ -1,0 +1,146 @@
+"""One verdict, computed once: every check says whether it ran, and a run that did not
+complete, or checked nothing, never reads PASS in the console, report.md or figures.json."""
+
+import json
+import signal
+
+import numpy as np
+import pytest
+from rich.console import Console
+
+from vehil import compare, report
+from vehil.scenario import Tolerance
+
+
+def series(board, ref, tolerances, **kw) -> compare.Series:  # noqa: ANN001
+    board = np.asarray(board, dtype=float)
+    board = board if board.ndim == 2 else board.reshape(-1, 1)
+    ref = np.asarray(ref, dtype=float).reshape(board.shape)
+    n, m = board.shape
+    names = kw.pop("names", ["y", "m"][:m])
+    return compare.Series(
+        names=names,
+        units={name: "" for name in names},
+        t=np.arange(n) * 0.01,
+        board=board,
+        reference=ref,
+        truth=kw.pop("truth", {}),
+        status=np.zeros(n, dtype=np.uint8),
+        cycles=np.full(n, 100, dtype=np.int64),
+        rtt_s=np.full(n, 1e-3),
+        late=np.zeros(n, dtype=bool),
+        tolerances=tolerances,
+        **kw,
+    )
+
+
+def written(s: compare.Series, tmp_path) -> tuple[str, dict, compare.Figures]:  # noqa: ANN001
+    figures = compare.evaluate(s)
+    md = report.write(s, figures, {"title": "t"}, tmp_path).read_text()
+    return md, json.loads((tmp_path / "figures.json").read_text()), figures
+
+
+def row(md: str, name: str) -> str:
+    return next(line for line in md.splitlines() if line.startswith(f"| {name} "))
+
+
+def console_text(figures: compare.Figures) -> str:
+    c = Console(width=200, record=True)
+    c.print(report.summary_table(figures, "t"))
+    c.print(report.verdict_line(figures))
+    return c.export_text()
+
+
+def test_report_md_fails_an_output_that_fails_only_against_the_truth(tmp_path) -> None:  # noqa: ANN001
+    n = 50
+    s = series(
+        np.ones(n), np.ones(n), {"y": Tolerance(abs=0.1, truth_rms=0.01)}, truth={"y": np.zeros(n)}
+    )
+    md, data, figures = written(s, tmp_path)
+    assert "FAIL truth" in row(md, "y") and "Overall: **FAIL**" in md
+    assert data["pass"] is False and data["outputs"]["y"]["passed"] is False
+    assert data["outputs"]["y"]["truth"]["passed"] is False
+    assert "FAIL truth" in console_text(figures) and figures.verdict.exit_status == 1
+
+
+def test_an_output_without_tolerance_is_not_checked_however_far_off(tmp_path) -> None:  # noqa: ANN001
+    n = 50
+    board = np.column_stack([np.ones(n), np.full(n, 1509.5)])
+    ref = np.column_stack([np.ones(n), np.full(n, 1500.0)])
+    md, data, figures = written(series(board, ref, {"y": Tolerance(abs=0.1)}), tmp_path)
+    assert "not checked" in row(md, "m") and "pass" not in row(md, "m")
+    assert data["outputs"]["m"]["reference"]["passed"] is None
+    assert figures.verdict.word == "PASS" and "not checked: m" in figures.verdict.reason
+
+
+def test_a_run_with_nothing_checked_says_so_and_does_not_pass(tmp_path) -> None:  # noqa: ANN001
+    md, data, figures = written(series(np.ones(20), np.ones(20), {}), tmp_path)
+    assert "Overall: **NOT CHECKED**" in md and "no output has a tolerance" in md
+    assert data["pass"] is False and figures.verdict.exit_status == 1
+    assert "NOT CHECKED" in console_text(figures)
+
+
+@pytest.mark.parametrize(
+    ("ending", "word", "status"),
+    [
+        ({"ended": "failed", "error": "board lost after 20 of 100 samples: no reply"}, "FAILED", 2),
+        ({"ended": "interrupted", "error": "stopped by Ctrl-C"}, "INTERRUPTED", 130),
+        ({"ended": "interrupted", "stop_signal": signal.SIGTERM}, "INTERRUPTED", 143),
+        ({"ended": "interrupted", "stop_signal": signal.SIGHUP}, "INTERRUPTED", 129),
+        ({"ended": "completed"}, "FAILED", 2),  # 20 of the 100 expected: incomplete
+    ],
+)
+def test_a_run_that_did_not_complete_is_never_pass(tmp_path, ending, word, status) -> None:  # noqa: ANN001
+    s = series(np.ones(20), np.ones(20), {"y": Tolerance(abs=0.1)}, expected=100, **ending)
+    md, data, figures = written(s, tmp_path)
+    assert f"Overall: **{word}**" in md and "PASS" not in md
+    assert data["pass"] is False and data["verdict"]["word"] == word
+    assert figures.verdict.exit_status == status == data["exit_status"]
+
+
+def test_a_board_that_refused_config_leaves_no_output_reading_pass(tmp_path) -> None:  # noqa: ANN001
+    error = "after 0 of 100 samples: board refused CONFIG: BAD_PARAM"
+    tol = {"y": Tolerance(abs=0.1)}
+    s = series(np.empty((0, 1)), [], tol, expected=100, ended="failed", error=error)
+    md, data, figures = written(s, tmp_path)
+    assert "not checked" in row(md, "y") and "pass" not in row(md, "y")
+    assert "pass" not in console_text(figures).split("FAILED")[0]
+    assert figures.verdict.word == "FAILED" and "BAD_PARAM" in figures.verdict.reason
+
+
+def test_bit_exactness_on_the_native_board_is_not_checked(tmp_path) -> None:  # noqa: ANN001
+    tol = {"y": Tolerance(abs=0.1, bit_exact=True)}
+    s = series(np.ones(20), np.ones(20), tol, native_board=True)
+    md, data, figures = written(s, tmp_path)
+    assert "bits not checked" in row(md, "y") and "bit-exact" not in row(md, "y")
+    assert data["outputs"]["y"]["bit_exact"]["passed"] is None
+    assert "bits not checked" in console_text(figures)
+
+
+def test_bit_exactness_is_checked_where_native_outputs_exist(tmp_path) -> None:  # noqa: ANN001
+    tol = {"y": Tolerance(abs=0.1, bit_exact=True)}
+    native = np.ones((20, 1))
+    native[3] = 1.0 + 2**-20
+    figures = compare.evaluate(series(np.ones(20), np.ones(20), tol, native=native))
+    assert figures.outputs["y"].bit_exact == compare.BitExactCheck(1, False)
+    assert figures.verdict.word == "FAIL" and "y (bits)" in figures.verdict.reason
+
+
+def test_runs_with_no_output_in_common_share_nothing_to_compare() -> None:
+    a = series(np.ones(10), np.ones(10), {}, names=["y"])
+    b = series(np.ones(10), np.ones(10), {}, names=["v"])
+    d = compare.diff_runs(a, b)
+    assert not d["identical"] and d["outputs"] == {} and d["only_in"] == [["y"], ["v"]]
+
+
+def test_cycles_of_different_boards_are_not_compared_as_a_change() -> None:
+    a = series(np.ones(10), np.ones(10), {}, board_name="native")
+    b = series(np.ones(10), np.ones(10), {}, board_name="simavr")
+    b.cycles[:] = 9393
+    d = compare.diff_runs(a, b)
+    c = Console(width=300, record=True)
+    c.print(report.diff_table(d, "a", "b"))
+    text = c.export_text()
+    assert "different boards, not compared" in text and "%" not in text
+    same = compare.diff_runs(a, series(np.ones(10), np.ones(10), {}, board_name="native"))
+    assert same["cycles_comparable"]
