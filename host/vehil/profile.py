@@ -248,7 +248,7 @@ def estimator_costs(
                 budget=spec.budget.get(mode),
                 within_budget=None
                 if mode not in spec.budget
-                else fig["cycles"]["median"] <= spec.budget[mode],
+                else (fig.cycles["median"] or 0) <= spec.budget[mode],
                 **{f"symbols_{k}": v for k, v in symbol_sizes(f"{name}_", elf).items()},
             )
             rows.append(row)
