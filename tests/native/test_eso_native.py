@@ -13,7 +13,8 @@ from vehil.papers.eso import U_MAX, board_loop
     ("name", "x_limit"),
     [
         ("s1-sine-eso", 1e-5),  # float32
-        ("s1-sine-eso-fixed", 2e-5),  # fixed point
+        ("s1-sine-eso-fixed", 6e-5),  # fixed point: the high-pass in Q21, for hard bumps
+        ("hard-bumps-eso-fixed", 1e-4),  # a_us to -444 m/s²: no saturation
         ("s3-random-eso-b", 5e-5),
         ("s4-random-kfui", 5e-5),
     ],
@@ -21,6 +22,7 @@ from vehil.papers.eso import U_MAX, board_loop
 def test_c_follows_the_reference(run_scenario, name: str, x_limit: float) -> None:  # noqa: ANN001
     result = run_scenario(name, board="native")
     result.assert_passed()
+    assert result.figures["status"].get("SATURATED", 0) == 0
     for out in ("x_s", "x_us", "x_r"):
         assert result.figures.outputs[out].reference.max_abs < x_limit
 

@@ -105,11 +105,11 @@ int32_t accel_cond_step_q(const accel_cond_q_t *c, accel_chan_q_t *ch, int32_t a
     const hp_delta_q_t *hp = &c->hp;
     int32_t a20 = fx_rescale(a, 16, 20, status);
     int32_t d2 = fx_sub(fx_sub(a20, ch->x1, status), fx_sub(ch->x1, ch->x2, status), status);
-    int32_t dh = fx_sub(ch->dh, fx_mul(hp->c2, 30, ch->dh, 24, 24, status), status);
-    dh = fx_add(dh, fx_mul(hp->g, 30, d2, 20, 24, status), status);
-    ch->dh = fx_sub(dh, fx_mul(hp->c12, 30, ch->h1, 24, 24, status), status);
+    int32_t dh = fx_sub(ch->dh, fx_mul(hp->c2, 30, ch->dh, ACCEL_QH, ACCEL_QH, status), status);
+    dh = fx_add(dh, fx_mul(hp->g, 30, d2, 20, ACCEL_QH, status), status);
+    ch->dh = fx_sub(dh, fx_mul(hp->c12, 30, ch->h1, ACCEL_QH, ACCEL_QH, status), status);
     int32_t h = fx_add(ch->h1, ch->dh, status);
-    int32_t l = biquad_q(&c->lp, h, ch->h1, ch->h2, 24, ch->l1, ch->l2, status);
+    int32_t l = biquad_q(&c->lp, h, ch->h1, ch->h2, ACCEL_QH, ch->l1, ch->l2, status);
     int32_t dv = fx_mul(c->half_T, 30, fx_add(l, ch->l1, status), 20, 24, status);
     int32_t v = fx_mul(c->alpha, 30, fx_add(ch->v, dv, status), 24, 24, status);
     int32_t dx = fx_mul(c->half_T, 30, fx_add(v, ch->v, status), 24, 28, status);

@@ -8,7 +8,9 @@
  * 0.35 % of the displacement to float32 rounding): with Δ = y1 - y2,
  *   Δ <- (1 - c2) Δ + g (x - 2 x1 + x2) - c12 y1,  y = y1 + Δ,
  * c2 = 1 - a2 = 2√2 K g, c12 = 1 + a1 + a2 = 4 K² g, g = 1/(1 + √2 K + K²).
- * Fixed point: raw and low-passed data Q20 (m/s²), high-passed Q24 (±128 m/s²),
+ * Fixed point: raw and low-passed data Q20 (m/s²), high-passed and its step ACCEL_QH
+ * (Q21, ±1,024 m/s²: over four times the -235 m/s² an unsprung mass reaches on hard
+ * bumps, docs/estimators/eso.md),
  * coefficients Q29 (high-pass Q30),
  * velocity Q24, displacement Q28. */
 #ifndef VEHIL_ESTIMATORS_ACCEL_COND_H
@@ -19,6 +21,7 @@
 #include "estimators/params.h"
 
 #define ACCEL_COND_N_PARAMS 3u
+#define ACCEL_QH 21 /* Q format of the high-passed acceleration */
 
 typedef struct {
     float b0, b1, b2, a1, a2;
@@ -57,7 +60,7 @@ typedef struct {
 
 typedef struct {
     int32_t x1, x2, l1, l2; /* Q20 */
-    int32_t h1, h2, dh;     /* Q24: the high-pass's output, its history and last step */
+    int32_t h1, h2, dh;     /* ACCEL_QH: the high-pass's output, its history and last step */
     int32_t v;                      /* Q24 */
     int32_t x;                      /* Q28 */
 } accel_chan_q_t;
