@@ -22,7 +22,7 @@ from vehil.papers.eso import U_MAX, board_loop
 def test_c_follows_the_reference(run_scenario, name: str, x_limit: float) -> None:  # noqa: ANN001
     result = run_scenario(name, board="native")
     result.assert_passed()
-    assert result.figures["status"].get("SATURATED", 0) == 0
+    assert result.figures.status.get("SATURATED", 0) == 0
     for out in ("x_s", "x_us", "x_r"):
         assert result.figures.outputs[out].reference.max_abs < x_limit
 
