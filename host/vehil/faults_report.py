@@ -1,5 +1,11 @@
 """What the link does under each fault: `python -m vehil.faults_report [--board B]`.
 
+`--campaign` instead counts, per board, fault class and rate, how many faults were
+injected into how many exchanges, and what became of each exchange a fault hit:
+refused (detected), answered right anyway (harmless), or accepted with a wrong answer
+(wrongly accepted: must stay 0). It runs until `--faults-per-class` faults are in or
+`--seconds` have gone by, per row, and says which ended it.
+
 Per fault class and rate (per byte, both directions, seeded): PINGs sent once
 (detected = refused or timed out, wrongly accepted = an echo that differs), then
 with retries (recovered); SAMPLEs streamed through passthrough, every lost request
@@ -13,18 +19,23 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import json
 import random
 import struct
 import sys
 import time
+from dataclasses import asdict, dataclass
 from typing import Any
 
 from rich.console import Console
 from rich.table import Table
 
 from vehil.boards import open_board
-from vehil.errors import LinkError
+from vehil.errors import BoardError, LinkError
+from vehil.protocol import frame as framing
+from vehil.protocol.schema import SCHEMA
 from vehil.terminal import make_console
+from vehil.transports.protocol_faults import ByteFaults
 
 CLASSES = ("drop", "flip", "dup", "insert")
 RATES = (1e-3, 1e-2)
@@ -83,6 +94,144 @@ def measure(
     }
 
 
+# Stop-and-wait PINGs with no retry: how long a lost request or reply is waited for.
+# Shorter than a board's worst round trip only turns late replies into detected losses.
+CAMPAIGN_TIMEOUT_S = {"native": 0.005, "simavr": 0.03, "qemu": 0.1}
+
+
+@dataclass
+class CampaignRow:
+    """One board, fault class and rate: exchanges and what the faults did to them."""
+
+    board: str
+    kind: str
+    rate: float
+    frames: int = 0  # PING requests sent, each answered by one reply frame
+    injected: int = 0  # faults put on the wire, both directions
+    hit: int = 0  # exchanges with at least one fault in their bytes
+    detected: int = 0  # exchanges refused: timeout, bad frame, wrong seq or type, ERROR
+    harmless: int = 0  # hit, yet the echo came back right (a doubled delimiter, say)
+    wrong: int = 0  # accepted with an echo that differs from what was sent
+    seconds: float = 0.0
+    ended_by: str = ""
+
+
+CODEC = "codec"  # the host's frame decoder alone, fed broken reply frames: no board, no timeouts
+
+
+def codec_row(kind: str, rate: float, faults: int, max_s: float, seed: int = 1) -> CampaignRow:
+    """PING replies as a board frames them, broken on the way and fed to the host's frame
+    decoder: a frame it passes that differs from the one sent got through COBS and the
+    CRC corrupted. Fast enough to reach the counts where a check's residual rate shows."""
+    row = CampaignRow(CODEC, kind, rate)
+    rng = random.Random(seed)
+    faulty = ByteFaults({kind: rate}, seed)
+    decoder = framing.StreamDecoder()
+    pong = SCHEMA.messages["PONG"]
+    start = time.perf_counter()
+    while row.injected < faults and row.seconds < max_s:
+        for _ in range(1000):
+            body = pong.pack(
+                timestamp=rng.getrandbits(32), payload=rng.randbytes(rng.randint(1, 32))
+            )
+            sent = framing.Frame(pong.type, row.frames & 0xFF, body)
+            before = faulty.counts.total()
+            got = decoder.feed(
+                faulty.apply(framing.encode(sent.type, sent.seq, body), "from board")
+            )
+            injected = faulty.counts.total() - before
+            row.frames += 1
+            row.injected += injected
+            row.hit += injected > 0
+            row.wrong += sum(f != sent for f in got)
+            if sent not in got:
+                row.detected += 1
+            elif injected:
+                row.harmless += 1
+        row.seconds = time.perf_counter() - start
+    row.ended_by = "faults" if row.injected >= faults else "time"
+    return row
+
+
+def campaign_row(
+    board: str, kind: str, rate: float, faults: int, max_s: float, seed: int = 1
+) -> CampaignRow:
+    """PINGs of random length and content, each checked against its echo."""
+    if board == CODEC:
+        return codec_row(kind, rate, faults, max_s, seed)
+    row = CampaignRow(board, kind, rate)
+    rng = random.Random(seed)
+    with open_board(board, timeout_s=2.0, faults=f"{kind}={rate},seed={seed}") as link:
+        link.timeout_s = CAMPAIGN_TIMEOUT_S.get(board, 0.1)
+        link.retries = 0
+        counts = link.port.counts
+        start = time.perf_counter()
+        while row.injected < faults and row.seconds < max_s:
+            payload = rng.randbytes(rng.randint(1, 32))
+            before = sum(counts.values())
+            try:
+                echo = link.request("PING", payload=payload).fields()["payload"]
+            except (LinkError, BoardError, ValueError):  # ValueError: a body of the wrong shape
+                echo = None
+            injected = sum(counts.values()) - before
+            row.frames += 1
+            row.injected += injected
+            row.hit += injected > 0
+            if echo is None:
+                row.detected += 1
+            elif echo != payload:
+                row.wrong += 1
+            elif injected:
+                row.harmless += 1
+            row.seconds = time.perf_counter() - start
+    row.ended_by = "faults" if row.injected >= faults else "time"
+    return row
+
+
+def campaign_table(rows: list[CampaignRow], faults: int, max_s: float) -> Table:
+    t = Table(
+        title=f"link fault campaign: stop-and-wait PINGs of 1-32 random bytes, no retries; "
+        f"each row until {faults:,g} faults or {max_s:g} s"
+    )
+    for col in ("board", "class", "rate", "frames", "injected", "exchanges hit", "detected",
+                "harmless", "wrongly accepted", "s", "ended by"):  # fmt: skip
+        t.add_column(col, justify="left" if col in ("board", "class", "ended by") else "right")
+    for r in rows:
+        t.add_row(
+            r.board,
+            r.kind,
+            f"{r.rate:g}",
+            f"{r.frames:,}",
+            f"{r.injected:,}",
+            f"{r.hit:,}",
+            f"{r.detected:,}",
+            f"{r.harmless:,}",
+            f"[bold red]{r.wrong:,}[/]" if r.wrong else "0",
+            f"{r.seconds:.0f}",
+            r.ended_by,
+        )
+    return t
+
+
+def run_campaign(args: argparse.Namespace, console: Console) -> int:
+    rows = []
+    for board in args.board.split(","):
+        for kind in args.classes.split(","):
+            for rate in (float(r) for r in args.rates.split(",")):
+                r = campaign_row(board, kind, rate, int(args.faults_per_class), args.seconds)
+                rows.append(r)
+                console.print(
+                    f"{board} {kind} {rate:g}: {r.injected:,} faults in {r.frames:,} frames, "
+                    f"{r.detected:,} detected, {r.wrong} wrongly accepted ({r.seconds:.0f} s)",
+                    style="dim",
+                )
+    if args.json:
+        sys.stdout.write(json.dumps([asdict(r) for r in rows], indent=2) + "\n")
+    else:
+        console.print(campaign_table(rows, args.faults_per_class, args.seconds))
+    return 1 if any(r.wrong for r in rows) else 0
+
+
 def reset_recovery_s(board: str, what: int = 1) -> float:
     """From a reboot request (what=1) or a hang (2: the watchdog must act) to HELLO answered."""
     with open_board(board, timeout_s=2.0) as link:
@@ -118,8 +267,20 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m vehil.faults_report", description=__doc__)
     parser.add_argument("--board", default="simavr")
     parser.add_argument("--samples", type=int, default=2000, help="SAMPLEs streamed per point")
+    parser.add_argument(
+        "--campaign", action="store_true", help="count faults and their fate (see above)"
+    )
+    parser.add_argument("--faults-per-class", type=float, default=1e5, help="campaign: per row")
+    parser.add_argument("--seconds", type=float, default=600.0, help="campaign: at most, per row")
+    parser.add_argument("--classes", default=",".join(CLASSES), help="campaign: fault classes")
+    parser.add_argument(
+        "--rates", default=",".join(map(str, RATES)), help="campaign: per-byte fault rates"
+    )
+    parser.add_argument("--json", action="store_true", help="the figures as JSON on stdout")
     args = parser.parse_args(argv)
-    console = make_console()
+    console = make_console(stderr=args.json)
+    if args.campaign:
+        return run_campaign(args, console)
     t = Table(title=f"{args.board}: link faults (per byte, both directions)")
     for col in (
         "class",

@@ -55,6 +55,34 @@ def wrap_url(url: str, spec: str) -> str:
     return f"faults://{url}?{query}"
 
 
+class ByteFaults:
+    """Seeded faults per byte at the given rates; `counts` says what was injected."""
+
+    def __init__(self, rates: dict[str, float], seed: int = 0):
+        self.rates = rates
+        self.counts: Counter[str] = Counter()
+        self._rng = random.Random(seed)
+
+    def apply(self, data: bytes, direction: str) -> bytes:
+        out = bytearray()
+        rng, rates = self._rng, self.rates
+        for byte in data:
+            if rng.random() < rates.get("insert", 0.0):
+                out.append(rng.randrange(256))
+                self.counts[f"insert {direction}"] += 1
+            if rng.random() < rates.get("drop", 0.0):
+                self.counts[f"drop {direction}"] += 1
+                continue
+            if rng.random() < rates.get("flip", 0.0):
+                byte ^= 1 << rng.randrange(8)
+                self.counts[f"flip {direction}"] += 1
+            out.append(byte)
+            if rng.random() < rates.get("dup", 0.0):
+                out.append(byte)
+                self.counts[f"dup {direction}"] += 1
+        return bytes(out)
+
+
 class Serial(SerialBase):
     """A serial port that passes bytes through another one, breaking some of them."""
 
@@ -73,8 +101,8 @@ class Serial(SerialBase):
             self.rates = parse_spec(query)
         except ValueError as exc:
             raise SerialException(f"{text}: {exc}") from None
-        self._rng = random.Random(int(self.rates.get("seed", 0)))
-        self.counts: Counter[str] = Counter()
+        self.faults = ByteFaults(self.rates, int(self.rates.get("seed", 0)))
+        self.counts = self.faults.counts
         self.armed = False
         self._writes = 0
         self._inner = serial.serial_for_url(inner, baudrate=self._baudrate, timeout=self._timeout)
@@ -95,25 +123,7 @@ class Serial(SerialBase):
             self._inner.timeout = self._timeout
 
     def _break(self, data: bytes, direction: str) -> bytes:
-        if not self.armed:
-            return data
-        out = bytearray()
-        rng, rates = self._rng, self.rates
-        for byte in data:
-            if rng.random() < rates.get("insert", 0.0):
-                out.append(rng.randrange(256))
-                self.counts[f"insert {direction}"] += 1
-            if rng.random() < rates.get("drop", 0.0):
-                self.counts[f"drop {direction}"] += 1
-                continue
-            if rng.random() < rates.get("flip", 0.0):
-                byte ^= 1 << rng.randrange(8)
-                self.counts[f"flip {direction}"] += 1
-            out.append(byte)
-            if rng.random() < rates.get("dup", 0.0):
-                out.append(byte)
-                self.counts[f"dup {direction}"] += 1
-        return bytes(out)
+        return self.faults.apply(data, direction) if self.armed else data
 
     @property
     def in_waiting(self) -> int:
