@@ -478,6 +478,8 @@ def cmd_profile(args: argparse.Namespace) -> int:
         args.out or runs_dir() / f"profile-{args.board if args.board.isidentifier() else 'port'}"
     )
     profile.save(figures, out / "profile.json")
+    if args.json:
+        args.json_out.append(figures)  # the tables went to stderr
     for png in profile_report.plots(figures, out):
         console.print(f"plot {png}")
     console.print(f"figures {out / 'profile.json'}")

@@ -296,11 +296,11 @@ def main(argv: list[str] | None = None) -> int:
         "loss reported as",
     ):
         t.add_column(col, justify="right" if col not in ("class", "loss reported as") else "left")
-    wrong_total = 0
+    rows = []
     for kind in CLASSES:
         for rate in RATES:
             r = measure(args.board, kind, rate, samples=args.samples)
-            wrong_total += r["wrong"]
+            rows.append(r)
             t.add_row(
                 kind,
                 f"{rate:g}",
@@ -312,15 +312,21 @@ def main(argv: list[str] | None = None) -> int:
                 f"{r['streamed']}/{r['samples']}",
                 str(r["resent"]),
                 str(r["replayed"]) if r["replayed"] >= 0 else "-",
-                r["loss"][:60] or "-",
+                r["loss"] or "-",
             )
-    console.print(t)
-    console.print(f"board reset to ready again: {reset_recovery_s(args.board) * 1e3:.0f} ms")
+    if not args.json:
+        console.print(t)
+    figures: dict[str, Any] = {"board": args.board, "faults": rows}
+    figures["reset_to_ready_s"] = reset_recovery_s(args.board)
+    console.print(f"board reset to ready again: {figures['reset_to_ready_s'] * 1e3:.0f} ms")
     if args.board == "simavr":  # QEMU's mega2560 has no watchdog
-        hang = reset_recovery_s(args.board, what=2)
+        hang = figures["watchdog_to_ready_s"] = reset_recovery_s(args.board, what=2)
         console.print(f"board hung, watchdog reset, ready again: {hang * 1e3:.0f} ms")
-    console.print(f"a run with a board reset half-way: {resumed_run(args.board)}")
-    return 1 if wrong_total else 0
+    figures["reset_mid_run"] = resumed_run(args.board)
+    console.print(f"a run with a board reset half-way: {figures['reset_mid_run']}")
+    if args.json:
+        sys.stdout.write(json.dumps(figures, indent=2) + "\n")
+    return 1 if any(r["wrong"] for r in rows) else 0
 
 
 if __name__ == "__main__":

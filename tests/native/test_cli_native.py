@@ -67,6 +67,7 @@ def test_tables_keep_their_full_width_off_a_terminal(built) -> None:  # noqa: AN
         ["bench", "--boards", "native", "--scenario", "sine"],
         ["run", "sine", "--board", "native"],
         ["compare", "RUN", "RUN"],
+        ["profile", "--board", "native", "--no-sweep", "--estimators", "passthrough"],
     ],
 )
 def test_every_command_that_prints_a_table_gives_json(recorded, command, capsys) -> None:  # noqa: ANN001
