@@ -107,6 +107,8 @@ def test_ctrl_c_stops_a_run_cleanly_and_keeps_what_was_recorded(tmp_path, built)
         ("paper-dither", "simavr", 15.0),
         ("rls-flat-steps", "simavr", 20.0),
         ("rls-flat-steps-fixed", "simavr", 20.0),  # bit-exact with the native build
+        ("rls-heavy-rolling-fixed", "simavr", 20.0),  # unlike the shipped drives
+        ("rls-truck-fixed", "qemu", 5.0),
         ("paper-dither-fixed", "simavr", 15.0),  # bit-exact with the native build
         ("paper-dither-fixed", "qemu", 2.0),
         ("mass-step-fixed", "simavr", 45.0),  # past the +300 kg at 40 s

@@ -16,6 +16,9 @@ from vehil.estimators import stlqf
         ("mass-step", "m", 2.0),
         ("rls-flat-steps", "grade", 0.5),
         ("rls-flat-steps-fixed", "grade", 6.0),
+        ("rls-heavy-fixed", "m", 0.05),  # unlike the shipped drives: 1650 kg from 1000 kg
+        ("rls-heavy-rolling-fixed", "m", 1.5),
+        ("rls-truck-fixed", "cda", 3.5),
     ],
 )
 def test_c_follows_the_reference(run_scenario, name, output, limit) -> None:  # noqa: ANN001
@@ -77,3 +80,24 @@ def test_a_scenario_that_fixed_point_refuses_names_the_parameter(built, tmp_path
     assert run.ended == "failed"
     assert "prefilter_hz = 1 Hz, is in [0, 50]" in run.error
     assert "stlqf in FIXED refuses it" in run.error
+
+
+def test_fixed_point_rls_holds_its_estimate_on_a_sample_past_its_bounds(built) -> None:  # noqa: ANN001
+    spec = stlqf.RLS
+
+    def sample(v: float, v_dot: float) -> list[float]:  # a 1500 kg car, 0.5 m², level road
+        return [v, v_dot, 1500.0 * v_dot + 0.5 * 0.603 * v * v + 1500.0 * 9.81 * 0.015]
+
+    drive = [sample(10.0 + 0.1 * k, (-1.0) ** k) for k in range(40)]
+    with open_board("native") as link:
+        link.configure("rls", "FIXED", spec.encode_params(spec.param_values({}), "FIXED"))
+        replies = list(
+            link.pipeline(
+                ("SAMPLE", {"inputs": spec.encode_inputs(u, "FIXED")})
+                for u in [*drive, sample(14.0, 30.0), sample(14.0, 1.5)]  # 30 m/s² > 16
+            )
+        )
+    before, clamped, after = (r.fields() for r in replies[-3:])
+    assert clamped["status"] & 0x08 and not before["status"] & 0x08
+    assert clamped["outputs"] == before["outputs"]  # held: not learnt from
+    assert after["outputs"] != clamped["outputs"] and not after["status"] & 0x09

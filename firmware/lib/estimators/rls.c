@@ -7,12 +7,72 @@
 
 enum { P_LAMBDA, P_P0_M, P_P0_CDA, P_CAP, N_OWN };
 #define N_PARAMS (N_OWN + LONGIT_N_PARAMS)
-#define QN 30 /* ψ_n, z_n, θ_n, λ */
-#define QP 27 /* P */
-#define QK 24 /* gains */
+#define ONE_Q30 ((int32_t)1 << 30)
 
 static const param_range_t ranges[N_OWN] = {
     {0.5f, 1.0f, 30}, {0.0f, 1e9f, 0}, {0.0f, 1e4f, 16}, {1.0f, 1e6f, 0}};
+
+/* FIXED's Q formats: ψ = [v̇, ½ρv², g/cos ε] as longit gives them, θ = [m, C_dA_f, m sin]. */
+static const uint8_t psi_q[3] = {24, 18, 26};
+static const uint8_t theta_q[3] = {16, 20, 16};
+#define ERR_Q 12 /* the innovation: ±512 kN, as m v̇ can be in a transient */
+
+/* P̃_ij's place in the packed lower triangle. */
+static uint8_t at(uint8_t i, uint8_t j)
+{
+    return i >= j ? (uint8_t)(i * (i + 1u) / 2u + j) : (uint8_t)(j * (j + 1u) / 2u + i);
+}
+
+static uint8_t bit_length(uint32_t x)
+{
+    uint8_t n = 0;
+    while (x >> 8 != 0u) { /* whole bytes first: the AVR shifts a bit at a time */
+        x >>= 8;
+        n += 8;
+    }
+    while (x != 0u) {
+        x >>= 1;
+        n++;
+    }
+    return n;
+}
+
+static uint32_t magnitude(int32_t x) { return x < 0 ? (uint32_t)0 - (uint32_t)x : (uint32_t)x; }
+
+/* v 2^n: rounded half up when n < 0, saturated (flagged) when it does not fit. */
+static int32_t shift(int32_t v, int16_t n, uint8_t *st)
+{
+    if (n >= 0) {
+        if (v != 0 && (n > 30 || v > (INT32_MAX >> n) || v < (INT32_MIN >> n))) {
+            *st |= STATUS_SATURATED;
+            return v > 0 ? INT32_MAX : INT32_MIN;
+        }
+        return (int32_t)((uint32_t)v << n);
+    }
+    if (n < -31) {
+        return 0;
+    }
+    uint8_t d = (uint8_t)-n;
+    return (v >> d) + ((v >> (d - 1u)) & 1);
+}
+
+/* A positive value v 2^-q as P̃ (Q30, in [1/4, 1)) and an exponent e, v = P̃ 2^(2e); 0 stays
+ * 0. Configure time only: int64 is fine there. */
+static void to_scaled(int64_t v, uint8_t q, int32_t *mant, int8_t *e)
+{
+    *mant = 0;
+    *e = 0;
+    if (v <= 0) {
+        return;
+    }
+    uint8_t n = 0;
+    while ((v >> n) != 0) {
+        n++;
+    }
+    *e = (int8_t)(((int16_t)n - q + 1) >> 1); /* arithmetic: floor */
+    int16_t up = (int16_t)(30 - q - 2 * *e);
+    *mant = (int32_t)(up >= 0 ? v << up : (v + ((int64_t)1 << (-up - 1))) >> -up);
+}
 
 static void reset_covariance(rls_state_t *s)
 {
@@ -24,7 +84,8 @@ static void reset_covariance(rls_state_t *s)
     } else {
         memset(s->u.q.P, 0, sizeof s->u.q.P);
         for (uint8_t i = 0; i < 3u; i++) {
-            s->u.q.P[4u * i] = s->u.q.p0[i];
+            s->u.q.P[at(i, i)] = s->u.q.p0[i];
+            s->u.q.e[i] = s->u.q.e_p0[i];
         }
     }
 }
@@ -32,13 +93,15 @@ static void reset_covariance(rls_state_t *s)
 static void rls_reset(void *state)
 {
     rls_state_t *s = state;
-    float theta[3];
-    longit_initial(&s->model, theta);
     longit_reset(&s->model);
     if (s->mode == MODE_F32) {
-        memcpy(s->u.f32.theta, theta, sizeof theta);
+        longit_initial(&s->model, s->u.f32.theta);
     } else {
-        memcpy(s->u.q.theta, s->u.q.theta0, sizeof s->u.q.theta);
+        uint8_t st = 0;
+        const longit_q_t *l = &s->u.q.shared;
+        s->u.q.theta[0] = l->m0;
+        s->u.q.theta[1] = fx_rescale(l->cda0, 24, theta_q[1], &st);
+        s->u.q.theta[2] = fx_mul(l->m0, 16, l->sin_eps, 30, theta_q[2], &st);
     }
     reset_covariance(s);
 }
@@ -47,23 +110,20 @@ static void rls_reset(void *state)
 static void configure_q(rls_state_t *s, const uint8_t *params)
 {
     uint8_t st = 0;
-    longit_q_t *l = &s->u.q.shared;
-    longit_configure_q(l, params, N_OWN);
-    int32_t p0_m = param_q(params, P_P0_M), p_cap = param_q(params, P_CAP);
-    /* P_n(0) = P(0) / scale²: 2048², 4², 1024² into Q27. */
-    s->u.q.p0[0] = fx_rescale(p0_m, 22, QP, &st);
-    s->u.q.p0[1] = fx_rescale(param_q(params, P_P0_CDA), 16 + 4, QP, &st);
-    s->u.q.p0[2] = fx_rescale(p0_m, 20, QP, &st);
+    longit_configure_q(&s->u.q.shared, params, N_OWN);
+    int64_t p_cap = param_q(params, P_CAP); /* Q0 */
+    const int64_t p0[3] = {param_q(params, P_P0_M), param_q(params, P_P0_CDA),
+                           param_q(params, P_P0_M)};
+    const uint8_t p0_q[3] = {0, 16, 0};
     for (uint8_t i = 0; i < 3u; i++) {
-        /* Past Q27's range it saturates: the cap is then the largest P it holds. */
-        s->u.q.cap[i] = fx_mul(p_cap, 0, s->u.q.p0[i], QP, QP, &st);
+        to_scaled(p0[i], p0_q[i], &s->u.q.p0[i], &s->u.q.e_p0[i]);
+        to_scaled(p0[i] * p_cap, p0_q[i], &s->u.q.cap[i], &s->u.q.e_cap[i]);
     }
     s->u.q.lambda = param_q(params, P_LAMBDA);
-    s->u.q.inv_lambda = fx_div((int32_t)1 << QN, QN, s->u.q.lambda, QN, QN, &st);
-    /* θ_n(0) = [m0/2048, C_dA_f0/4, m0 sin ε/1024] */
-    s->u.q.theta0[0] = fx_rescale(l->m0, 16, 19, &st);
-    s->u.q.theta0[1] = fx_rescale(l->cda0, 24, 28, &st);
-    s->u.q.theta0[2] = fx_mul(l->m0, 16, l->sin_eps, QN, 20, &st);
+    s->u.q.inv_lambda = fx_div(ONE_Q30, 30, s->u.q.lambda, 30, 29, &st); /* λ >= 1/2 */
+    for (uint8_t i = 0; i < 3u; i++) {
+        s->u.q.cap[i] = fx_mul_shr(s->u.q.cap[i], s->u.q.lambda, 30, &st); /* λ cap */
+    }
 }
 
 static uint8_t rls_configure(void *state, uint8_t mode, const uint8_t *params)
@@ -131,52 +191,136 @@ static uint8_t step_f32(rls_state_t *s, const uint8_t *in, uint8_t *out)
     return (uint8_t)(status | longit_outputs(&s->model, theta[0], theta[1], theta[2], out));
 }
 
-static uint8_t step_q(rls_state_t *s, const uint8_t *in, uint8_t *out)
+/* P̃_ii back into [1/4, 1) by moving e_i (row and column i shift); 0 if a variance is
+ * not positive (round-off broke P). */
+static uint8_t renormalise(int32_t *P, int8_t *e, uint8_t *st)
+{
+    for (uint8_t i = 0; i < 3u; i++) {
+        int32_t *d = &P[at(i, i)];
+        if (*d <= 0) {
+            return 0;
+        }
+        while (*d < (ONE_Q30 >> 2) || *d >= ONE_Q30) {
+            int8_t k = *d < (ONE_Q30 >> 2) ? 1 : -1; /* P̃_ii 4^k, e_i - k */
+            for (uint8_t j = 0; j < 3u; j++) {
+                int32_t *p = &P[at(i, j)];
+                *p = shift(*p, (int16_t)(j == i ? 2 * k : k), st);
+            }
+            e[i] = (int8_t)(e[i] - k);
+        }
+    }
+    return 1;
+}
+
+/* Whether P_ii / λ would pass the cap, as P_ii > λ cap (both as P̃ 2^(2e)). */
+static uint8_t past_cap(const rls_state_t *s, uint8_t i)
+{
+    int32_t p = s->u.q.P[at(i, i)], cap = s->u.q.cap[i];
+    int16_t k = (int16_t)(2 * (s->u.q.e[i] - s->u.q.e_cap[i]));
+    if (k >= 0) {
+        return p > (k > 30 ? 0 : cap >> k);
+    }
+    return k < -30 ? 0u : (p >> -k) > cap;
+}
+
+/* Note §3's update with P as P̃ 2^(e_i + e_j) (rls.h): u = 2^e ψ as ũ 2^top (Q30, its
+ * largest entry in [1/2, 1)), w̃ = P̃ ũ, so Pψ = 2^(e + top) w̃ and λ + ψᵀPψ =
+ * 2^(2 top) s, s = λ 2^(-2 top) + ũᵀw̃, held as s_m 2^g; the gain is
+ * k = 2^(e - top) w̃ / s, and P - Pψ(Pψ)ᵀ/d is P̃ - w̃ w̃ᵀ / s in P̃'s units. */
+static void update_q(rls_state_t *s, const int32_t *x, uint8_t *status)
 {
     int32_t *theta = s->u.q.theta, *P = s->u.q.P;
+    int8_t *e = s->u.q.e;
     uint8_t st = 0;
-    /* The normalised regressors: v̇ in Q27 is v̇/8 in Q30, ½ρv² in Q18 /4096, z in Q16
-     * /16384, g' in Q26 /16. */
-    int32_t x[3];
-    longit_inputs_q(&s->u.q.shared, in, x, &st);
-    const int32_t psi[3] = {fx_rescale(x[0], 24, 27, &st), x[1], s->u.q.shared.g_cos};
-    int32_t zn = fx_rescale(x[2], 14, 16, &st);
-    int32_t pp[3], k[3];
-    int32_t denom = fx_rescale(s->u.q.lambda, QN, QP, &st), err = zn;
+    const int32_t psi[3] = {x[0], x[1], s->u.q.shared.g_cos};
+    int32_t err = fx_rescale(x[2], 14, ERR_Q, &st);
+    err = fx_sub(err, fx_mul_shr(psi[0], theta[0], 24 + 16 - ERR_Q, &st), &st);
+    err = fx_sub(err, fx_mul_shr(psi[1], theta[1], 18 + 20 - ERR_Q, &st), &st);
+    err = fx_sub(err, fx_mul_shr(psi[2], theta[2], 26 + 16 - ERR_Q, &st), &st);
+
+    int16_t top = INT16_MIN;
+    for (uint8_t j = 0; j < 3u; j++) { /* g' > 0: top is set */
+        int16_t b = (int16_t)(bit_length(magnitude(psi[j])) - psi_q[j] + e[j]);
+        top = psi[j] != 0 && b > top ? b : top;
+    }
+    int32_t u[3], w[3], t[3];
+    for (uint8_t j = 0; j < 3u; j++) {
+        u[j] = shift(psi[j], (int16_t)(30 - psi_q[j] + e[j] - top), &st);
+    }
+    uint32_t peak = 0;
     for (uint8_t i = 0; i < 3u; i++) {
-        pp[i] = 0;
+        w[i] = 0; /* Q29: |P̃_ij| < 1, |ũ_j| < 1 */
         for (uint8_t j = 0; j < 3u; j++) {
-            pp[i] = fx_add(pp[i], fx_mul(P[3u * i + j], QP, psi[j], QN, QP, &st), &st);
+            w[i] = fx_add(w[i], fx_mul_shr(P[at(i, j)], u[j], 31, &st), &st);
         }
-        denom = fx_add(denom, fx_mul(psi[i], QN, pp[i], QP, QP, &st), &st);
-        err = fx_sub(err, fx_mul(psi[i], QN, theta[i], QN, QN, &st), &st);
+        peak |= magnitude(w[i]);
     }
-    int32_t forget = s->u.q.inv_lambda;
+    /* w̃ = ŵ 2^gw, ŵ Q30 with its largest entry in [1/2, 1): once the estimate has
+     * converged ψ points where P is small, and w̃ and its square terms below are tiny. */
+    uint8_t n_w = bit_length(peak);
+    int16_t gw = (int16_t)(n_w - 29);
+    int32_t q = 0; /* ũᵀŵ, Q27: <= 3 */
     for (uint8_t i = 0; i < 3u; i++) {
-        k[i] = fx_div(pp[i], QP, denom, QP, QK, &st);
-        theta[i] = fx_add(theta[i], fx_mul(k[i], QK, err, QN, QN, &st), &st);
-        for (uint8_t j = 0; j <= i; j++) {
-            P[3u * i + j] = fx_sub(P[3u * i + j], fx_mul(k[i], QK, pp[j], QP, QP, &st), &st);
-        }
-        if (fx_mul(P[4u * i], QP, s->u.q.inv_lambda, QN, QP, &st) > s->u.q.cap[i]) {
-            forget = (int32_t)1 << QN; /* windup guard */
+        w[i] = shift(w[i], (int16_t)(30 - n_w), &st);
+        q = fx_add(q, fx_mul_shr(u[i], w[i], 33, &st), &st);
+    }
+    q = q > 0 ? q : 0;
+    /* s = λ 2^(-2 top) + q 2^gw as s_m 2^g, s_m in [1/4, 1) (Q30): each term is below
+     * 2^(g-1). */
+    int16_t g = (int16_t)(-2 * top);
+    int16_t gq = (int16_t)(bit_length((uint32_t)q) - 27 + gw);
+    g = (int16_t)((q != 0 && gq > g ? gq : g) + 1);
+    int32_t s_m = shift(s->u.q.lambda, (int16_t)(-2 * top - g), &st) +
+                  shift(q, (int16_t)(3 - g + gw), &st);
+    int32_t r = fx_div(ONE_Q30 >> 2, 28, s_m, 30, 28, &st); /* 1 / s_m in (1, 4] */
+    for (uint8_t i = 0; i < 3u; i++) {
+        t[i] = fx_mul_shr(w[i], r, 31, &st); /* ŵ / s_m, Q27: < 4 */
+    }
+    /* θ += k err, k = 2^(e - top - g + gw) t, err as err_m 2^(n_err - ERR_Q), err_m in
+     * [1/2, 1) (Q30). */
+    if (err != 0) {
+        uint8_t n_err = bit_length(magnitude(err));
+        int32_t err_m = shift(err, (int16_t)(30 - n_err), &st);
+        for (uint8_t i = 0; i < 3u; i++) {
+            int32_t p = fx_mul_shr(t[i], err_m, 31, &st); /* Q26 */
+            int16_t n = (int16_t)(theta_q[i] - 26 + e[i] - top - g + gw + n_err - ERR_Q);
+            theta[i] = fx_add(theta[i], shift(p, n, &st), &st);
         }
     }
-    uint8_t broken = 0;
+    /* P̃ - w̃ w̃ᵀ / s = P̃ - t ŵᵀ 2^(2 gw - g), whose entries are at most sqrt(P̃_ii P̃_jj) < 1. */
     for (uint8_t i = 0; i < 3u; i++) {
         for (uint8_t j = 0; j <= i; j++) {
-            P[3u * i + j] = fx_mul(P[3u * i + j], QP, forget, QN, QP, &st);
-            P[3u * j + i] = P[3u * i + j];
+            int32_t c = fx_mul_shr(t[i], w[j], 31, &st); /* Q26: < 4 */
+            P[at(i, j)] = fx_sub(P[at(i, j)], shift(c, (int16_t)(4 + 2 * gw - g), &st), &st);
         }
-        broken |= P[4u * i] <= 0;
     }
-    if (broken) {
+    uint8_t forget = 1;
+    for (uint8_t i = 0; i < 3u; i++) {
+        forget = past_cap(s, i) ? 0u : forget; /* windup guard */
+    }
+    if (forget) {
+        for (uint8_t i = 0; i < 6u; i++) {
+            P[i] = fx_mul_shr(P[i], s->u.q.inv_lambda, 29, &st);
+        }
+    }
+    if (!renormalise(P, e, &st)) {
         reset_covariance(s);
         st |= STATUS_SINGULAR;
     }
-    /* Outputs: θ_n read in other Q formats is θ (m: Q19, C_dA_f: Q28, m sin: Q20). */
-    longit_outputs_q(&s->u.q.shared, theta[0], QN - 11, fx_rescale(theta[1], QN - 2, 16, &st),
-                     theta[2], QN - 10, out, &st);
+    *status |= st;
+}
+
+static uint8_t step_q(rls_state_t *s, const uint8_t *in, uint8_t *out)
+{
+    const int32_t *theta = s->u.q.theta;
+    uint8_t st = 0;
+    int32_t x[3];
+    longit_inputs_q(&s->u.q.shared, in, x, &st);
+    if (!(st & STATUS_CLAMPED)) { /* a sample past FIXED's bounds would teach a wrong θ */
+        update_q(s, x, &st);
+    }
+    longit_outputs_q(&s->u.q.shared, theta[0], theta_q[0], fx_rescale(theta[1], theta_q[1], 16, &st),
+                     theta[2], theta_q[2], out, &st);
     return st;
 }
 

@@ -3,10 +3,13 @@
  * while a variance would pass p_cap times its start (windup guard); a P that round-off
  * made non-positive restarts at P(0), flagged SINGULAR.
  *
- * FIXED works in normalised units, so every quantity is O(1) in Q30 (P in Q27):
- * ψ_n = [v̇/8, ½ρv²/4096, g'/16], z_n = z/16384, θ_n = [m/2048, C_dA_f/4, m sin/1024]
- * (ψ_nᵀ θ_n = z_n exactly as ψᵀ θ = z); it needs v < 82 m/s, |v̇| < 16 m/s²,
- * |z| < 32 kN, m < 4096 kg, and takes no prefilter.
+ * FIXED (docs/estimators/rls.md) keeps θ in physical units (m, m sin Q16 kg, C_dA_f Q20
+ * m², the innovation Q12 N) and P in floating point made of integers: P_ij = P̃_ij
+ * 2^(e_i + e_j) with P̃ Q30, its diagonal kept in [1/4, 1) by the exponents, so
+ * |P̃_ij| < 1 always, whatever the decades P spans (1e-7 when a direction is well
+ * excited, p_cap · P(0) when it is not); the regressor, the denominator and the gains
+ * get an exponent each per step. Every multiply has its shift fixed at compile time.
+ * It needs v < 82 m/s, |v̇| < 16 m/s², |z| < 32 kN (longit.h) and takes no prefilter.
  *
  * Inputs  v [m/s] Q24, v̇ [m/s²] Q24, z [N] Q14.  Outputs m̂ [kg] Q16, Ĉ_dA_f [m²] Q16,
  * β̂_r [deg] Q20.  Params  λ, P(0) of m and m sin, P(0) of C_dA_f, p_cap, then longit's. */
@@ -29,10 +32,12 @@ typedef struct {
             float theta[3], P[9];
         } f32;
         struct {
-            int32_t theta[3]; /* θ_n, Q30 */
-            int32_t P[9];     /* Q27 */
-            int32_t theta0[3];                         /* θ_n(0), Q30 */
-            int32_t p0[3], cap[3], lambda, inv_lambda; /* Q27, Q30 */
+            int32_t theta[3];          /* m Q16, C_dA_f Q20, m sin Q16 */
+            int32_t P[6];              /* P̃ 00 10 11 20 21 22, Q30 */
+            int8_t e[3];               /* P_ij = P̃_ij 2^(e_i + e_j) */
+            int32_t p0[3], cap[3];     /* P(0)_ii and λ p_cap P(0)_ii as P̃ (Q30) */
+            int8_t e_p0[3], e_cap[3];  /* with these exponents */
+            int32_t lambda, inv_lambda; /* λ Q30, 1/λ Q29 */
             longit_q_t shared;
         } q;
     } u;

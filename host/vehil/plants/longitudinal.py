@@ -31,14 +31,16 @@ simulated car, resampled to the sample time linearly (`resample` = 0; its kinks 
 second make the outliers of note §9) or by a cubic spline (1; the paper does not say
 how it resampled); `gps = "file.csv"` in a scenario's [plant] puts a real GPS log
 (columns t [s], speed [m/s], altitude [m]) through the same pipeline instead; 1 flat;
-2 the smooth grade 5° sin(0.3 t) of note §9.
+2 the smooth grade 5° sin(0.3 t) of note §9 (`grade_deg` and `grade_rad_s` change its
+amplitude and frequency, for drives unlike the paper's).
 
 Drives (`profile`): 0 the paper's 75 s from rest (a throttle trace like Fig. 16's);
 1 strong throttle steps on a flat road; `dither` adds a small fast throttle dither
 (sign flips every 20-40 ms) that the note's addendum found is what makes the STLQF
-window system well conditioned. `mass_step` kg is added at `t_mass` (a trailer or
-passengers); `noise` = 1 gives realistic sensors (σ 0.05 m/s on v, 0.1 m/s² on v̇,
-10 N on z) instead of the paper's σ_N on z alone.
+window system well conditioned. `mass` and `cda` replace Table 1's 1250 kg and 0.48 m²
+(a heavier or draggier car than the shipped drives); `mass_step` kg is added at
+`t_mass` (a trailer or passengers); `noise` = 1 gives realistic sensors (σ 0.05 m/s
+on v, 0.1 m/s² on v̇, 10 N on z) instead of the paper's σ_N on z alone.
 """
 
 from __future__ import annotations
@@ -199,11 +201,12 @@ def _simulate(p: Mapping[str, Any], duration: float, T: float, seed: int) -> Tra
     elif road == 1:
         grade = np.zeros(n)
     else:
-        grade = np.deg2rad(5.0) * np.sin(0.3 * t)
+        grade = np.deg2rad(p["grade_deg"]) * np.sin(p["grade_rad_s"] * t)
     throttle = np.clip(
         throttle_trace(int(p["profile"]), t) + dither(n, T, p["dither"], rng), 0.0, 1.0
     )
-    mass = np.where(t >= p["t_mass"], M + p["mass_step"], M)
+    mass = np.where(t >= p["t_mass"], p["mass"] + p["mass_step"], p["mass"])
+    cda = p["cda"]
     p_brake = np.where((t >= p["t_brake"]) & (t < p["t_brake"] + 3.0), p["brake_mpa"], 0.0)
     throttle[p_brake > 0] = 0.0
 
@@ -217,7 +220,7 @@ def _simulate(p: Mapping[str, Any], duration: float, T: float, seed: int) -> Tra
         dw = (engine_torque(float(throttle[k]), w_e) - t_i) / I_EI
         t_b = K_B * p_brake[k] if v > 0 else 0.0
         f_x = (GEARS[gear] * R_FD * t_t - t_b) / R_W  # eq. 5, brake against motion
-        resist = 0.5 * CDA * RHO * v * v + mass[k] * G * (
+        resist = 0.5 * cda * RHO * v * v + mass[k] * G * (
             F_ROLL * np.cos(grade[k]) + np.sin(grade[k])
         )
         dv = (f_x - resist) / mass[k]
@@ -242,7 +245,7 @@ def _simulate(p: Mapping[str, Any], duration: float, T: float, seed: int) -> Tra
         },
         truth={
             "m": mass,
-            "cda": np.full(n, CDA),
+            "cda": np.full(n, cda),
             "grade": np.degrees(grade),
             "v_true": out[:, 0],
         },
@@ -258,6 +261,10 @@ SPEC = register(
             Param("road", "1", default=0, lo=0, hi=2, doc="0 GPS road, 1 flat, 2 5° sin(0.3 t)"),
             Param("resample", "1", default=0, lo=0, hi=1, doc="GPS grade: 0 linear, 1 spline"),
             Param("dither", "1", default=0.0, lo=0.0, hi=0.2, doc="throttle dither amplitude"),
+            Param("mass", "kg", default=M, lo=500.0, hi=4000.0, doc="vehicle mass (Table 1)"),
+            Param("cda", "m^2", default=CDA, lo=0.1, hi=3.0, doc="C_dA_f (Table 1)"),
+            Param("grade_deg", "deg", default=5.0, lo=0.0, hi=15.0, doc="road 2's amplitude"),
+            Param("grade_rad_s", "rad/s", default=0.3, lo=0.01, hi=3.0, doc="road 2's frequency"),
             Param("mass_step", "kg", default=0.0, lo=-300.0, hi=1500.0, doc="added at t_mass"),
             Param("t_mass", "s", default=1e9, lo=0.0, hi=1e9),
             Param("brake_mpa", "MPa", default=0.0, lo=0.0, hi=10.0, doc="brake pressure for 3 s"),
