@@ -24,6 +24,7 @@ import random
 import struct
 import sys
 import time
+from collections.abc import Iterator
 from dataclasses import asdict, dataclass
 from typing import Any
 
@@ -115,6 +116,26 @@ class CampaignRow:
     seconds: float = 0.0
     ended_by: str = ""
 
+    def until(self, faults: int, max_s: float) -> Iterator[None]:
+        """Once per exchange, until `faults` are in or `max_s` have gone by."""
+        start = time.perf_counter()
+        while self.injected < faults and self.seconds < max_s:
+            yield
+            self.seconds = time.perf_counter() - start
+        self.ended_by = "faults" if self.injected >= faults else "time"
+
+    def count(self, injected: int, right: bool, wrong: int) -> None:
+        """One exchange: the faults in its bytes, whether its right answer was accepted,
+        and how many wrong ones were."""
+        self.frames += 1
+        self.injected += injected
+        self.hit += injected > 0
+        self.wrong += wrong
+        if not right and not wrong:
+            self.detected += 1
+        elif right and injected:
+            self.harmless += 1
+
 
 CODEC = "codec"  # the host's frame decoder alone, fed broken reply frames: no board, no timeouts
 
@@ -128,28 +149,12 @@ def codec_row(kind: str, rate: float, faults: int, max_s: float, seed: int = 1) 
     faulty = ByteFaults({kind: rate}, seed)
     decoder = framing.StreamDecoder()
     pong = SCHEMA.messages["PONG"]
-    start = time.perf_counter()
-    while row.injected < faults and row.seconds < max_s:
-        for _ in range(1000):
-            body = pong.pack(
-                timestamp=rng.getrandbits(32), payload=rng.randbytes(rng.randint(1, 32))
-            )
-            sent = framing.Frame(pong.type, row.frames & 0xFF, body)
-            before = faulty.counts.total()
-            got = decoder.feed(
-                faulty.apply(framing.encode(sent.type, sent.seq, body), "from board")
-            )
-            injected = faulty.counts.total() - before
-            row.frames += 1
-            row.injected += injected
-            row.hit += injected > 0
-            row.wrong += sum(f != sent for f in got)
-            if sent not in got:
-                row.detected += 1
-            elif injected:
-                row.harmless += 1
-        row.seconds = time.perf_counter() - start
-    row.ended_by = "faults" if row.injected >= faults else "time"
+    for _ in row.until(faults, max_s):
+        body = pong.pack(timestamp=rng.getrandbits(32), payload=rng.randbytes(rng.randint(1, 32)))
+        sent = framing.Frame(pong.type, row.frames & 0xFF, body)
+        before = faulty.counts.total()
+        got = decoder.feed(faulty.apply(framing.encode(sent.type, sent.seq, body), "from board"))
+        row.count(faulty.counts.total() - before, sent in got, sum(f != sent for f in got))
     return row
 
 
@@ -165,26 +170,14 @@ def campaign_row(
         link.timeout_s = CAMPAIGN_TIMEOUT_S.get(board, 0.1)
         link.retries = 0
         counts = link.port.counts
-        start = time.perf_counter()
-        while row.injected < faults and row.seconds < max_s:
+        for _ in row.until(faults, max_s):
             payload = rng.randbytes(rng.randint(1, 32))
-            before = sum(counts.values())
+            before = counts.total()
             try:
                 echo = link.request("PING", payload=payload).fields()["payload"]
             except (LinkError, BoardError, ValueError):  # ValueError: a body of the wrong shape
                 echo = None
-            injected = sum(counts.values()) - before
-            row.frames += 1
-            row.injected += injected
-            row.hit += injected > 0
-            if echo is None:
-                row.detected += 1
-            elif echo != payload:
-                row.wrong += 1
-            elif injected:
-                row.harmless += 1
-            row.seconds = time.perf_counter() - start
-    row.ended_by = "faults" if row.injected >= faults else "time"
+            row.count(counts.total() - before, echo == payload, echo not in (None, payload))
     return row
 
 
