@@ -8,6 +8,7 @@
  *   pacing.c        sleeping, --realtime, wall-clock waits
  *   bootloader.c    --bootloader mode
  *   vcd_trace.c     --vcd
+ *   profiler.c      --profile
  */
 #ifndef VEHIL_SIMAVR_BRIDGE_H
 #define VEHIL_SIMAVR_BRIDGE_H
@@ -56,6 +57,9 @@ struct options {
 	const char *elf;
 	const char *bootloader;		/* Intel HEX; NULL: run the ELF */
 	const char *flash_image;	/* with --bootloader: flash kept here */
+	const char *profile;		/* --profile FILE; NULL: off */
+	const char *profile_map;	/* the functions' address ranges */
+	const char *profile_window;	/* ranges that open a window; NULL: the run */
 };
 extern struct options opt;
 void usage(FILE *f);
@@ -67,6 +71,7 @@ extern atomic_int g_attention;
 extern atomic_int g_stop_signal;
 extern atomic_int g_peer_closed;
 extern FILE *g_stdout;
+void finish(int code) __attribute__((noreturn));
 
 /* elf_load.c */
 void check_elf_file(const char *path);
@@ -133,5 +138,13 @@ extern avr_irq_t *g_sig;
 extern avr_vcd_t g_vcd;
 extern int g_vcd_open;
 void setup_vcd(avr_t *avr);
+
+/* profiler.c */
+extern int g_profiling;
+extern atomic_int g_profile_cut;	/* SIGUSR1 */
+int profiler_setup(avr_t *avr);
+void profiler_step(avr_t *avr, avr_flashaddr_t pc0, avr_cycle_count_t c0, uint8_t rp0, int state0);
+void profiler_cut(void);
+void profiler_finish(void);
 
 #endif

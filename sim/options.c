@@ -53,6 +53,13 @@ void usage(FILE *f)
 "                     it opens); with --pty, start as soon as the client has\n"
 "                     flushed its input, or at the latest MS after it opened\n"
 "                     (default 100; 0 for clients that do not flush)\n"
+"  --profile FILE     count cycles per function and call stack into FILE\n"
+"                     (needs --profile-map; see sim/README.md, Profiling)\n"
+"  --profile-map FILE the functions: one 'START END' a line, hex byte\n"
+"                     addresses, END exclusive; the line index is the id\n"
+"  --profile-window R count only from the PC entering ranges R\n"
+"                     (LO-HI[,LO-HI...], hex) until it leaves them in that\n"
+"                     frame; default: the whole run, cut by SIGUSR1\n"
 "  -v, --verbose      more simavr logging (repeatable)\n"
 "  -q, --quiet        no simavr logging\n"
 "  -h, --help         this help\n"
@@ -77,7 +84,8 @@ static int parse_u64(const char *s, uint64_t *v)
 
 void parse_args(int argc, char **argv)
 {
-	enum { O_TCP = 256, O_PTY, O_MCU, O_FREQ, O_RT, O_LIMIT, O_VCD, O_GDB, O_DELAY, O_BOOT, O_IMAGE };
+	enum { O_TCP = 256, O_PTY, O_MCU, O_FREQ, O_RT, O_LIMIT, O_VCD, O_GDB, O_DELAY, O_BOOT, O_IMAGE,
+		O_PROFILE, O_PROFILE_MAP, O_PROFILE_WINDOW };
 	static const struct option lo[] = {
 		{ "tcp", required_argument, NULL, O_TCP },
 		{ "pty", no_argument, NULL, O_PTY },
@@ -90,6 +98,9 @@ void parse_args(int argc, char **argv)
 		{ "start-delay", required_argument, NULL, O_DELAY },
 		{ "bootloader", required_argument, NULL, O_BOOT },
 		{ "flash-image", required_argument, NULL, O_IMAGE },
+		{ "profile", required_argument, NULL, O_PROFILE },
+		{ "profile-map", required_argument, NULL, O_PROFILE_MAP },
+		{ "profile-window", required_argument, NULL, O_PROFILE_WINDOW },
 		{ "verbose", no_argument, NULL, 'v' },
 		{ "quiet", no_argument, NULL, 'q' },
 		{ "help", no_argument, NULL, 'h' },
@@ -156,6 +167,15 @@ void parse_args(int argc, char **argv)
 		case O_IMAGE:
 			opt.flash_image = optarg;
 			break;
+		case O_PROFILE:
+			opt.profile = optarg;
+			break;
+		case O_PROFILE_MAP:
+			opt.profile_map = optarg;
+			break;
+		case O_PROFILE_WINDOW:
+			opt.profile_window = optarg;
+			break;
 		case 'v':
 			if (opt.log_level < LOG_DEBUG)
 				opt.log_level++;
@@ -187,6 +207,15 @@ void parse_args(int argc, char **argv)
 	if (opt.bootloader && opt.transport != TR_PTY) {
 		/* a new client must reset the chip: only the pty shows who opens it */
 		diag("--bootloader serves a pty only, not --tcp");
+		exit(EXIT_USAGE);
+	}
+	if (opt.profile && (!opt.profile_map || opt.bootloader || opt.gdb_port >= 0)) {
+		diag(!opt.profile_map ? "--profile needs --profile-map (the functions' addresses)"
+			: "--profile runs the ELF alone: not with --bootloader or --gdb");
+		exit(EXIT_USAGE);
+	}
+	if (!opt.profile && (opt.profile_map || opt.profile_window)) {
+		diag("--profile-map and --profile-window need --profile FILE");
 		exit(EXIT_USAGE);
 	}
 	int want = opt.bootloader ? 0 : 1;

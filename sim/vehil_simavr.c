@@ -69,6 +69,11 @@ static char g_fault_msg[256];
 
 static void on_signal(int sig)
 {
+	if (sig == SIGUSR1) {
+		atomic_store(&g_profile_cut, 1);
+		atomic_store(&g_attention, 1);
+		return;
+	}
 	atomic_store(&g_stop_signal, sig);
 	atomic_store(&g_attention, 1);
 }
@@ -151,7 +156,7 @@ static avr_io_t *find_io(avr_t *avr, const char *kind, char name)
 	return NULL;
 }
 
-static void finish(int code)
+void finish(int code)
 {
 	/* last words of the firmware, if the client takes them without waiting */
 	if (g_fd >= 0 && out_len && !atomic_load(&g_peer_closed)) {
@@ -162,6 +167,7 @@ static void finish(int code)
 	}
 	if (opt.bootloader && g_avr && g_avr->flash)	/* NULL after simavr's cpu_Done */
 		save_flash_image(g_avr);
+	profiler_finish();
 	if (g_vcd_open) {
 		avr_vcd_stop(&g_vcd);
 		avr_vcd_close(&g_vcd);
@@ -208,6 +214,7 @@ int main(int argc, char **argv)
 	sigemptyset(&sa.sa_mask);
 	sigaction(SIGINT, &sa, NULL);
 	sigaction(SIGTERM, &sa, NULL);
+	sigaction(SIGUSR1, &sa, NULL);
 
 	/* firmware + core */
 	elf_firmware_t fw;
@@ -267,6 +274,8 @@ int main(int argc, char **argv)
 
 	if (opt.vcd)
 		setup_vcd(avr);
+	if (opt.profile && profiler_setup(avr) != 0)
+		return EXIT_SETUP;
 
 	if (opt.gdb_port >= 0) {
 		avr->gdb_port = opt.gdb_port;
@@ -336,7 +345,16 @@ int main(int argc, char **argv)
 	rt_base_cycle = avr->cycle;
 
 	for (;;) {
-		avr->run(avr);
+		if (__builtin_expect(g_profiling, 0)) {
+			avr_flashaddr_t pc = avr->pc;
+			avr_cycle_count_t c = avr->cycle;
+			uint8_t rp = avr->interrupts.running_ptr;
+			int state = avr->state;
+			avr->run(avr);
+			profiler_step(avr, pc, c, rp, state);
+		} else {
+			avr->run(avr);
+		}
 
 		if (__builtin_expect(avr->state >= cpu_Done || avr->pc >= code_end
 				|| atomic_load_explicit(&g_attention, memory_order_relaxed), 0)) {
@@ -364,6 +382,8 @@ int main(int argc, char **argv)
 			}
 			if (atomic_load(&g_reset_request))
 				reset_chip(avr);
+			if (atomic_exchange(&g_profile_cut, 0))
+				profiler_cut();
 			if (atomic_exchange(&g_client_left, 0))
 				save_flash_image(avr);
 			int sig = atomic_load(&g_stop_signal);

@@ -301,7 +301,13 @@ def cmd_run(args: argparse.Namespace) -> int:
 
     sc = scenario.load(args.scenario)
     recording = Path(args.out) / "run.arrow" if args.out else None
-    board = _board(args)
+    board, profiled = _board(args), None
+    if args.profile:
+        from vehil.fnprofile import collect
+
+        recording = recording or runner.default_recording_path(sc, args.board)
+        profiled = collect.session(args.board, "step", recording.parent / "profile")
+        board = profiled.board(args.board, timeout_s=args.timeout, faults=args.faults)
     run = runner.run(
         sc,
         board,
@@ -310,7 +316,12 @@ def cmd_run(args: argparse.Namespace) -> int:
         recording=recording,
         timeout_s=args.timeout,
     )
-    return _finish_run(args, run, f"{sc.name}: {sc.estimator.name} ({sc.mode}) on {args.board}")
+    code = _finish_run(args, run, f"{sc.name}: {sc.estimator.name} ({sc.mode}) on {args.board}")
+    if profiled is not None:
+        from vehil.fnprofile.command import run_profile
+
+        run_profile(console, profiled, run)
+    return code
 
 
 def _replayed_cut(log_path: Path, accept: bool) -> str | None:
@@ -415,6 +426,10 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
 
 
 def cmd_profile(args: argparse.Namespace) -> int:
+    if args.functions:
+        from vehil.fnprofile.command import profile_functions
+
+        return profile_functions(args, console)
     from vehil import profile, profile_report
     from vehil.boards import make_board
 
@@ -574,6 +589,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     _add_board_options(p)
     _add_run_options(p)
     p.add_argument("--window", type=int, default=None, help="samples in flight (lockstep)")
+    p.add_argument(
+        "--profile", action="store_true", help="simavr: cycles per function of every step, too"
+    )
     p.set_defaults(func=cmd_run)
 
     p = sub.add_parser("replay", help="run a recorded drive (recording, CSV, MDF4) on a board")
@@ -624,6 +642,27 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     p.add_argument("--out", default=None, help="folder for profile.json and plots")
     p.add_argument("--compare", default=None, help="an older profile.json: report what got slower")
+    p.add_argument(
+        "--functions",
+        action="store_true",
+        help="cycles per function of every step of SCENARIO (or --ping SIZE: the link's frame "
+        "path), counted by the simavr bridge",
+    )
+    p.add_argument("scenario", nargs="?", help="with --functions: the scenario whose steps")
+    p.add_argument("--samples", type=int, default=None, help="with --functions: at most N steps")
+    p.add_argument(
+        "--window",
+        type=int,
+        default=None,
+        help="with --functions: samples in flight (1: stop-and-wait)",
+    )
+    p.add_argument("--ping", type=int, default=None, help="with --functions: PINGs of SIZE bytes")
+    p.add_argument(
+        "--link-window",
+        choices=("frame", "exchange"),
+        default="frame",
+        help="with --ping: each frame's handling, or the whole firmware per exchange",
+    )
     p.set_defaults(func=cmd_profile)
 
     p = sub.add_parser("bench", help="samples/s through the runner per board (host side)")

@@ -5,6 +5,11 @@
         result.assert_passed()
 
 `--vehil-board NAME` picks the board for tests that do not name one (default simavr).
+
+    def test_my_step_does_no_64_bit_division(profile_steps):
+        profile = profile_steps("manf-hard-stop-fixed", samples=200, window=1)
+        profile.assert_not_called("__udivmoddi4")
+        profile.assert_self_at_most("manf_step", 1500)   # cycles in any one step
 """
 
 from __future__ import annotations
@@ -82,3 +87,23 @@ def run_scenario(vehil_board_name: str, tmp_path: Path) -> Callable[..., Scenari
         return ScenarioResult(result, figures, result.recording)
 
     return _run
+
+
+@pytest.fixture
+def profile_steps(tmp_path: Path) -> Callable[..., Any]:
+    """profile_steps(NAME_OR_PATH_OR_SCENARIO, board="simavr", samples=None, window=None)
+    -> vehil.fnprofile.Profile: every step's cycles per function, counted on simavr
+    (window=1: stop-and-wait, so no receive interrupt lands in a step)."""
+    from vehil import scenario
+    from vehil.fnprofile import collect
+
+    def _profile(
+        which: Any, board: str = "simavr", samples: int | None = None, window: int | None = None
+    ) -> Any:
+        sc = which if isinstance(which, scenario.Scenario) else scenario.load(which)
+        if samples is not None:
+            sc = dataclasses.replace(sc, duration=min(sc.duration, samples * sc.sample_time))
+        folder = tmp_path / f"profile-{sc.name}-{board}"
+        return collect.scenario_steps(sc, board, window=window, folder=folder).profile
+
+    return _profile

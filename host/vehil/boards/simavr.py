@@ -31,6 +31,7 @@ class SimavrBoard(Board):
         realtime: bool = False,
         vcd: Path | None = None,
         gdb_port: int | None = None,
+        profile: list[str] | None = None,
         **options: object,
     ):
         super().__init__(**options)  # type: ignore[arg-type]
@@ -38,6 +39,7 @@ class SimavrBoard(Board):
         self.extra = (["--realtime"] if realtime else []) + (["--vcd", str(vcd)] if vcd else [])
         if gdb_port is not None:
             self.extra += ["--gdb", str(gdb_port)]
+        self.extra += profile or []  # the bridge's --profile options (vehil.fnprofile)
         self.process: BoardProcess | None = None
 
     def bridge_args(self) -> list[str]:

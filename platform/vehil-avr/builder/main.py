@@ -28,10 +28,17 @@ env.Replace(
     SIZEDATAREGEXP=r"^(?:\.data|\.bss|\.noinit)\s+(\d+).*",
 )
 env.Append(
-    ASFLAGS=["-mmcu=" + mcu],
+    # -gdwarf-4: line tables for `vehil profile --functions`, the assembly kernels' too (the
+    # code is the same without; C sources get it from platformio.ini)
+    ASFLAGS=["-mmcu=" + mcu, "-gdwarf-4"],
     CCFLAGS=["-mmcu=" + mcu],
     # .data loaded below 64 KB of flash, where QEMU 7.2 can read it (vehil/build/ldscript.py)
-    LINKFLAGS=["-mmcu=" + mcu, "-T", str(write_script(Path(env.subst("$BUILD_DIR")), mcu))],
+    LINKFLAGS=[
+        "-mmcu=" + mcu,
+        "-gdwarf-4",
+        "-T",
+        str(write_script(Path(env.subst("$BUILD_DIR")), mcu)),
+    ],
     CPPDEFINES=[("F_CPU", f_cpu)],
     BUILDERS={
         "ElfToHex": Builder(

@@ -1,0 +1,168 @@
+"""Profiled runs on simavr: the bridge counts, the ELF names, a Profile comes back.
+
+Windows: "step" (every estimator step: the message core's call of the step, with
+everything it calls and every interrupt that lands in it), "frame" (the message core's
+handling of each frame: decode, dispatch, reply encoded and queued) and "exchange" (the
+whole firmware between two cuts, for N PING exchanges: RX and TX interrupts, bytes
+into the frame buffer, the frame path)."""
+
+from __future__ import annotations
+
+import os
+import signal
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from rich.console import Console
+
+from vehil.boards import VIRTUAL_BOARDS, Board, make_board
+from vehil.boards.simavr import SimavrBoard, SimavrBootloaderBoard
+from vehil.errors import VehilError
+from vehil.fnprofile.elfmap import ElfMap, _instruction_words
+from vehil.fnprofile.model import Profile
+
+FRAME_FUNCTION = "end_of_frame"  # firmware/lib/board/dispatch.c
+
+
+def _board_class(name: str) -> type[SimavrBoard]:
+    cls = VIRTUAL_BOARDS.get(name)
+    if cls is None or not issubclass(cls, SimavrBoard) or issubclass(cls, SimavrBootloaderBoard):
+        profilable = [
+            n
+            for n, c in VIRTUAL_BOARDS.items()
+            if issubclass(c, SimavrBoard) and not issubclass(c, SimavrBootloaderBoard)
+        ]
+        raise VehilError(
+            f"--functions counts cycles in the simavr bridge: board {name!r} cannot; "
+            f"use one of {', '.join(profilable)}"
+        )
+    return cls
+
+
+def elf_of(board: str) -> Path:
+    """The image the board runs."""
+    return _board_class(board)().elf
+
+
+@dataclass
+class Session:
+    """The bridge's options for one profiled board, and where its output lands."""
+
+    elf: ElfMap
+    what: str
+    folder: Path
+
+    @property
+    def output(self) -> Path:
+        return self.folder / "profile.txt"
+
+    def bridge_args(self) -> list[str]:
+        self.folder.mkdir(parents=True, exist_ok=True)
+        fmap = self.folder / "functions.map"
+        fmap.write_text(self.elf.map_text())
+        args = ["--profile", str(self.output), "--profile-map", str(fmap)]
+        if self.what == "step":
+            sites = self.elf.step_call_sites()
+            ranges = [(a, a + 2 * _instruction_words(self.elf.word(a))) for a in sites]
+        elif self.what == "frame":
+            ranges = self.elf.function_ranges(FRAME_FUNCTION)
+        else:
+            ranges = []
+        if ranges:
+            args += ["--profile-window", ",".join(f"{lo:x}-{hi:x}" for lo, hi in ranges)]
+        return args
+
+    def board(self, name: str, **options: Any) -> Board:
+        return make_board(name, profile=self.bridge_args(), **options)
+
+    def read(self) -> Profile:
+        if not self.output.exists():
+            raise VehilError(f"the simavr bridge wrote no profile ({self.output})")
+        return Profile.read(self.output, self.elf, self.what)
+
+
+def session(board: str, what: str, folder: Path | None = None) -> Session:
+    path = elf_of(board)
+    folder = folder or Path(tempfile.mkdtemp(prefix="vehil-profile-"))
+    return Session(ElfMap(path), what, folder)
+
+
+@dataclass
+class ProfiledRun:
+    run: Any  # runner.Run
+    profile: Profile
+
+
+def scenario_steps(
+    sc: Any,  # scenario.Scenario
+    board: str = "simavr",
+    *,
+    window: int | None = None,
+    folder: Path | None = None,
+    console: Console | None = None,
+    timeout_s: float = 2.0,
+) -> ProfiledRun:
+    """Runs a scenario with every step profiled; window 1 is stop-and-wait (no receive
+    interrupt lands in a step), None keeps the board's RX window full (lockstep)."""
+    from vehil import runner
+
+    s = session(board, "step", folder)
+    target = s.board(board, timeout_s=timeout_s)
+    rec = s.folder / "run.arrow"
+    run = runner.run(
+        sc,
+        target,
+        window=window,
+        recording=rec,
+        console=console or Console(quiet=True),
+        timeout_s=timeout_s,
+    )
+    if run.error:
+        raise VehilError(f"the profiled run of {sc.name} failed: {run.error}")
+    return ProfiledRun(run, s.read())
+
+
+def _cut(board: Board) -> None:
+    """SIGUSR1: the bridge closes the run's window here and opens the next."""
+    assert isinstance(board, SimavrBoard) and board.process is not None
+    os.kill(board.process.proc.pid, signal.SIGUSR1)
+    time.sleep(0.05)
+
+
+def pings(
+    board: str = "simavr",
+    *,
+    size: int = 16,
+    count: int = 100,
+    what: str = "frame",
+    folder: Path | None = None,
+    timeout_s: float = 2.0,
+) -> Profile:
+    """PING exchanges (stop-and-wait) profiled: "frame" has one window per frame the
+    core handled; "exchange" one window over all `count` exchanges, the whole firmware."""
+    from vehil.ping import run_ping
+
+    s = session(board, what, folder)
+    target = s.board(board, timeout_s=timeout_s)
+    with target.session() as link:
+        run_ping(link, count=3, size=size)
+        if what == "exchange":
+            _cut(target)
+        run_ping(link, count=count, size=size)
+        if what == "exchange":
+            _cut(target)
+    profile = s.read()
+    profile.per = count if what == "exchange" else 1
+    if what == "frame":  # the warm-up's and the boot's frames go
+        keep = profile.windows - count
+        profile.self_cycles = profile.self_cycles[:, keep:]
+        profile.calls = profile.calls[:, keep:]
+        profile.how = profile.how[keep:]
+    elif what == "exchange":
+        profile.self_cycles = profile.self_cycles[:, 1:2]
+        profile.calls = profile.calls[:, 1:2]
+        profile.how = profile.how[1:2]
+    return profile

@@ -1,0 +1,87 @@
+"""`vehil profile --functions` and `vehil run --profile`: profile, print, write."""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from rich.console import Console
+
+from vehil.errors import VehilError
+from vehil.fnprofile import collect, export, tables
+from vehil.fnprofile.model import Profile
+
+
+def show(
+    console: Console,
+    profile: Profile,
+    title: str,
+    folder: Path,
+    result_cycles: np.ndarray | None = None,
+) -> dict[str, Path]:
+    for line in tables.summary_lines(profile, result_cycles):
+        console.print(line)
+    console.print(tables.flat_table(profile, title))
+    console.print(tables.lines_table(profile))
+    files = export.write_all(profile, folder, title, result_cycles)
+    for kind, path in files.items():
+        console.print(f"{kind:10s} {path}")
+    return files
+
+
+def run_profile(console: Console, session: collect.Session, run: Any) -> None:
+    """After `vehil run --profile`: the steps' profile beside the run's report."""
+    if run.error:
+        console.print("[yellow]no profile: the run did not complete[/]")
+        return
+    profile = session.read()
+    sc = run.prepared.scenario
+    title = f"{sc.name}: {sc.estimator.name} ({sc.mode}) step on {run.board}"
+    show(console, profile, title, session.folder, run.cycles)
+    report = session.folder.parent / "report.md"
+    if report.exists():
+        with report.open("a") as f:
+            f.write(
+                "\n[Where each step's cycles go](profile/profile.md) "
+                "(flame graph: profile/flame.png)\n"
+            )
+
+
+def profile_functions(args: argparse.Namespace, console: Console) -> int:
+    from vehil import scenario
+
+    board = args.board
+    if args.ping is not None:
+        folder = Path(args.out or f"runs/profile-functions-ping{args.ping}-{board}")
+        profile = collect.pings(
+            board,
+            size=args.ping,
+            count=args.count,
+            what=args.link_window,
+            folder=folder / "bridge",
+            timeout_s=args.timeout,
+        )
+        title = f"{args.ping}-byte PING on {board}: " + (
+            "the frame path (end_of_frame)"
+            if args.link_window == "frame"
+            else f"the whole firmware per exchange, {args.count} exchanges"
+        )
+        show(console, profile, title, folder)
+        return 0
+    if not args.scenario:
+        raise VehilError("--functions needs a SCENARIO (or --ping SIZE for the link's frame path)")
+    sc = scenario.load(args.scenario)
+    if args.samples:
+        sc = dataclasses.replace(sc, duration=min(sc.duration, args.samples * sc.sample_time))
+    folder = Path(args.out or f"runs/profile-functions-{sc.name}-{board}-{sc.mode.lower()}")
+    result = collect.scenario_steps(
+        sc, board, window=args.window, folder=folder / "bridge", timeout_s=args.timeout
+    )
+    title = f"{sc.name}: {sc.estimator.name} ({sc.mode}) step on {board}" + (
+        ", stop-and-wait" if args.window == 1 else ", lockstep"
+    )
+    show(console, result.profile, title, folder, result.run.cycles)
+    return 0

@@ -1,0 +1,136 @@
+"""A profile as tables: the flat table per function, the hottest source lines and the
+windows' totals, for the terminal (rich) and for Markdown reports."""
+
+from __future__ import annotations
+
+import numpy as np
+from rich.table import Table
+
+from vehil.fnprofile.model import Profile
+
+
+def _mmm(x: np.ndarray, per: int) -> tuple[str, str, str]:
+    x = x / per
+    return f"{x.min():,.0f}", f"{np.median(x):,.0f}", f"{x.max():,.0f}"
+
+
+def flat_rows(profile: Profile, limit: int = 30) -> list[list[str]]:
+    """function, self min/median/max, inclusive median/max, calls median/max, share."""
+    per = profile.per
+    whole = float(np.median(profile.window_cycles)) / per or 1.0
+    rows = []
+    for s in profile.function_stats()[:limit]:
+        if not s.self.any() and not s.calls.any():
+            continue
+        lo, med, hi = _mmm(s.self, per)
+        inc = s.inclusive / per
+        calls = s.calls / per
+        rows.append(
+            [
+                s.label,
+                lo,
+                med,
+                hi,
+                f"{np.median(inc):,.0f}",
+                f"{inc.max():,.0f}",
+                f"{np.median(calls):,.0f}" if per == 1 else f"{calls.mean():,.1f}",
+                f"{calls.max():,.0f}" if per == 1 else "",
+                f"{np.median(s.self) / per / whole * 100:.1f} %",
+            ]
+        )
+    return rows
+
+
+FLAT_HEADER = [
+    "function",
+    "self min",
+    "self median",
+    "self max",
+    "incl. median",
+    "incl. max",
+    "calls median",
+    "calls max",
+    "share",
+]
+
+
+def summary_lines(profile: Profile, result_cycles: np.ndarray | None = None) -> list[str]:
+    per = profile.per
+    w = profile.window_cycles / per
+    irq = profile.interrupt_cycles / per
+    unit = {"step": "step", "frame": "frame", "exchange": "exchange"}.get(profile.what, "window")
+    lines = [
+        f"{profile.windows * per:,} {unit}s: {w.min():,.0f} / {np.median(w):,.0f} / "
+        f"{w.max():,.0f} cycles (min / median / max) counted per {unit}, of which interrupts "
+        f"that landed in it {irq.min():,.0f} / {np.median(irq):,.0f} / {irq.max():,.0f}"
+    ]
+    for name, c in sorted(profile.interrupts().items()):
+        c = c / per
+        lines.append(f"  {name}: median {np.median(c):,.0f}, max {c.max():,.0f} cycles per {unit}")
+    if result_cycles is not None and len(result_cycles) == profile.windows:
+        d = result_cycles - profile.window_cycles
+        values, counts = np.unique(d, return_counts=True)
+        most = int(values[np.argmax(counts)])
+        lines.append(
+            f"RESULT cycles - counted cycles: {most:+d} in {int(counts.max())} of {len(d)} steps "
+            f"(the probe's read of Timer1 and the call's set-up outside the window)"
+            + (
+                ""
+                if len(values) == 1
+                else f"; range {int(d.min()):+d} .. {int(d.max()):+d} "
+                "(interrupts between the probe and the call)"
+            )
+        )
+    return lines
+
+
+def flat_table(profile: Profile, title: str, limit: int = 30) -> Table:
+    t = Table(title=title)
+    for i, col in enumerate(FLAT_HEADER):
+        t.add_column(col, justify="left" if i == 0 else "right")
+    for row in flat_rows(profile, limit):
+        t.add_row(*row)
+    t.caption = " ".join(
+        [
+            "self: the function's own instructions; incl.: with what it calls; cycles per",
+            f"{profile.what}; share: median self of the median {profile.what}",
+        ]
+    )
+    return t
+
+
+def lines_table(profile: Profile, limit: int = 15) -> Table:
+    t = Table(title=f"hottest source lines (cycles per {profile.what}, mean)")
+    for col in ("line", "function", "cycles", "share"):
+        t.add_column(col, justify="left" if col in ("line", "function") else "right")
+    n = profile.windows * profile.per
+    total = float(profile.window_cycles.sum()) or 1.0
+    for ln in profile.hot_lines(limit):
+        where = f"{ln.line.file}:{ln.line.line}" if ln.line else "(no line table)"
+        t.add_row(where, ln.function, f"{ln.cycles / n:,.1f}", f"{ln.cycles / total * 100:.1f} %")
+    return t
+
+
+def markdown(
+    profile: Profile,
+    title: str,
+    result_cycles: np.ndarray | None = None,
+    png: str | None = None,
+    limit: int = 30,
+) -> str:
+    out = [f"## {title}", ""]
+    out += [f"{line}  " for line in summary_lines(profile, result_cycles)] + [""]
+    if png:
+        out += [f"![flame graph]({png})", ""]
+    out.append("| " + " | ".join(FLAT_HEADER) + " |")
+    out.append("|" + "---|" * len(FLAT_HEADER))
+    out += ["| " + " | ".join(r) + " |" for r in flat_rows(profile, limit)]
+    out += ["", "| line | function | cycles | share |", "|---|---|---|---|"]
+    n = profile.windows * profile.per
+    total = float(profile.window_cycles.sum()) or 1.0
+    for ln in profile.hot_lines(15):
+        where = f"`{ln.line.file}:{ln.line.line}`" if ln.line else "(no line table)"
+        out.append(
+            f"| {where} | {ln.function} | {ln.cycles / n:,.1f} | {ln.cycles / total * 100:.1f} % |"
+        )
+    return "\n".join(out) + "\n"

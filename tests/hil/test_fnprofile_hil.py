@@ -1,0 +1,80 @@
+"""`vehil profile --functions` on simavr: the bridge's counts against RESULT, a step of
+known shape, interrupts apart from the step's own code, and the pytest-facing API."""
+
+import numpy as np
+import pytest
+
+from vehil import scenario
+from vehil.fnprofile import collect
+
+pytestmark = pytest.mark.hil
+
+MANF = "manf-hard-stop-fixed"
+
+
+def _steps(tmp_path, window, samples=150):  # noqa: ANN001, ANN202
+    import dataclasses
+
+    sc = scenario.load(MANF)
+    sc = dataclasses.replace(sc, duration=samples * sc.sample_time)
+    return collect.scenario_steps(sc, window=window, folder=tmp_path / f"w{window}")
+
+
+def test_every_cycle_of_a_step_is_counted_once_and_matches_result(tmp_path) -> None:  # noqa: ANN001
+    res = _steps(tmp_path, window=1)
+    p = res.profile
+    assert p.windows == len(res.run.cycles) == 150
+    # RESULT counts from the probe's read of Timer1 to the next one, less the probe's
+    # own cost; the window is the step's call: they differ by the same few cycles.
+    d = res.run.cycles - p.window_cycles
+    assert len(set(d.tolist())) == 1 and 0 < d[0] < 64
+    stats = p.function_stats()
+    assert np.array_equal(sum(s.self for s in stats), p.window_cycles)  # interrupts' code too
+    assert sum(p.collapsed().values()) == p.window_cycles.sum()
+    step = p.function("manf_step")
+    assert step is not None and (step.calls == 1).all()
+    assert np.array_equal(step.inclusive + 4, p.window_cycles)  # and the ICALL, in main
+    # the step's helpers by name: the project's own, and libgcc's named as such
+    assert {s.library for s in stats if s.self.any()} >= {"", "libgcc"}
+    assert all(s.name.startswith("__") for s in stats if s.library == "libgcc")
+
+
+def test_lockstep_interrupts_are_apart_from_the_steps_own_code(tmp_path) -> None:  # noqa: ANN001
+    alone = _steps(tmp_path, window=1).profile
+    piped = _steps(tmp_path, window=None).profile
+    irq = piped.interrupts()
+    assert irq["interrupt USART0_RX"].sum() > 0  # frames behind the step arrived during it
+    # The same inputs: the step's own code takes the same cycles whatever lands in it.
+    own = [p.window_cycles - p.interrupt_cycles for p in (alone, piped)]
+    assert np.array_equal(own[0], own[1])
+
+
+def test_a_step_of_known_shape_gives_the_expected_table(tmp_path) -> None:  # noqa: ANN001
+    """passthrough's step copies its input with avr-libc's memcpy, once: 12 cycles and
+    8 a byte (ld 2, st 2, subi, sbci, brcc 2)."""
+    s = collect.session("simavr", "step", tmp_path)
+    sizes = [4, 8, 16, 40, 4]
+    with s.board("simavr").session() as link:
+        link.configure("passthrough", "F32")
+        for n in sizes:
+            link.request("SAMPLE", inputs=bytes(range(n)))
+    p = s.read()
+    memcpy, step = p.function("memcpy"), p.function("passthrough_step")
+    assert memcpy is not None and step is not None
+    assert memcpy.library == "avr-libc"
+    assert memcpy.calls.tolist() == [1] * len(sizes)
+    assert memcpy.self.tolist() == [12 + 8 * n for n in sizes]
+    assert len(set(step.self.tolist())) == 1  # no branch in it
+    assert np.array_equal(step.inclusive, step.self + memcpy.self)
+
+
+def test_a_users_test_asserts_on_functions(profile_steps) -> None:  # noqa: ANN001
+    from vehil.fnprofile import ProfileError
+
+    p = profile_steps(MANF, samples=20, window=1)
+    p.assert_not_called("__udivmoddi4")
+    p.assert_self_at_most("manf_step", 100_000)
+    with pytest.raises(ProfileError, match="manf_step ran in 20 of 20 steps"):
+        p.assert_not_called("manf_step")
+    with pytest.raises(ProfileError, match="manf_step: .* self cycles in one step, more than 10"):
+        p.assert_self_at_most("manf_step", 10)
