@@ -60,11 +60,17 @@ def summary_table(figures: Figures, title: str) -> Table:
     c, r = figures.cycles, figures.rtt_ms
     flags = ", ".join(f"{k} x{v}" for k, v in figures.status.items() if v) or "none"
     t.caption = (
-        f"{figures.samples:,} samples; cycles/step min {_g(c['min'])} median {_g(c['median'])} "
+        f"{_samples(figures)}; cycles/step min {_g(c['min'])} median {_g(c['median'])} "
         f"max {_g(c['max'])}{_stack(figures)}; round trip p50 {_g(r['p50'])} ms "
         f"p99 {_g(r['p99'])} ms; late {figures.late}; status flags: {flags}"
     )
     return t
+
+
+def _samples(figures: Figures) -> str:
+    """How many samples the figures cover, of how many the run was to have."""
+    of = f" of {figures.expected:,}" if figures.expected is not None else ""
+    return f"{figures.samples:,}{of} samples"
 
 
 def verdict_line(figures: Figures) -> str:
@@ -178,7 +184,8 @@ def write(s: Series, figures: Figures, context: dict[str, Any], out: Path) -> Pa
     c, r = figures.cycles, figures.rtt_ms
     lines += [
         "",
-        f"Cycles per step: min {_g(c['min'])}, median {_g(c['median'])}, max {_g(c['max'])}"
+        f"Figures over {_samples(figures)}. Cycles per step: min {_g(c['min'])}, "
+        f"median {_g(c['median'])}, max {_g(c['max'])}"
         f"{_stack(figures)}. Round trip: p50 {_g(r['p50'])} ms, p99 {_g(r['p99'])} ms. "
         f"Late samples: {figures.late}.",
         "",
