@@ -14,8 +14,14 @@
  * entered is a frame of its own (a marker node for its vector, its code
  * below), left by RETI.  An instruction's cycles go to the function whose
  * code it is, in the frame on top: a jump into another function (a tail
- * call) replaces the frame's function, as a call to it would have.  simavr
+ * call) replaces the frame's function, as a call to it would have; a window
+ * stays open while its outermost frame runs another function's code (a jump
+ * table in libgcc), and closes when that frame is back in its own function
+ * outside the ranges.  simavr
  * 1.6 enters an interrupt in 0 cycles; RETI's cycles are the ISR's.
+ *
+ * SIGUSR1 ends a segment of the output: the run's window is cut there, and the
+ * instructions' totals so far are written and start again.
  *
  * Output, one record a line (hex addresses):
  *   N id parent func   a calling-context node; func >= 0 a function of the
@@ -23,7 +29,8 @@
  *                      -1 - v an interrupt with vector v; parent -1: a root
  *   W k cycles how     window k closed ("end"; "cut": SIGUSR1 or exit; "reset")
  *   S node self calls  a node's cycles and entries in that window (after W)
- *   P addr cycles      all windows' cycles of the instruction at addr (at exit)
+ *   P addr cycles      the segment's cycles of the instruction at addr
+ *   C                  the end of a segment (SIGUSR1; the last one ends at exit)
  */
 #include "bridge.h"
 
@@ -68,6 +75,7 @@ static struct {
 
 	struct frame stack[MAX_DEPTH];
 	int depth;		/* 0: no window open */
+	uint32_t base_func;	/* the function the window was opened in */
 	uint64_t window_cycles;
 	uint64_t windows;
 } P;
@@ -173,7 +181,8 @@ void profiler_step(avr_t *avr, avr_flashaddr_t pc0, avr_cycle_count_t c0, uint8_
 	if (!P.depth) {
 		if (!P.run_window && !(pc0 >> 1 < P.n_words && P.opens[pc0 >> 1]))
 			return;
-		int32_t root = child(-1, (int32_t)func_at(pc0));
+		P.base_func = func_at(pc0);
+		int32_t root = child(-1, (int32_t)P.base_func);
 		P.stack[P.depth++] = (struct frame){ root, 0 };
 		touch(root);
 		P.nodes[root].calls++;
@@ -215,7 +224,8 @@ void profiler_step(avr_t *avr, avr_flashaddr_t pc0, avr_cycle_count_t c0, uint8_
 		}
 	}
 	if (!P.run_window && (P.depth == 0 || (P.depth == 1
-			&& !(pc1 >> 1 < P.n_words && P.opens[pc1 >> 1])))) {
+			&& !(pc1 >> 1 < P.n_words && P.opens[pc1 >> 1])
+			&& func_at(pc1) == P.base_func))) {
 		close_window("end");
 		P.depth = 0;
 		return;
@@ -229,10 +239,21 @@ void profiler_step(avr_t *avr, avr_flashaddr_t pc0, avr_cycle_count_t c0, uint8_
 }
 
 /* SIGUSR1 (run window): what ran since the last cut is a window. */
+static void dump_pcs(void)
+{
+	for (uint32_t w = 0; w < P.n_words; w++)
+		if (P.pc_cycles[w]) {
+			fprintf(P.out, "P %x %llu\n", w << 1, (unsigned long long)P.pc_cycles[w]);
+			P.pc_cycles[w] = 0;
+		}
+}
+
 void profiler_cut(void)
 {
 	if (P.run_window && P.window_cycles)
 		close_window("cut");
+	dump_pcs();
+	fputs("C\n", P.out);
 }
 
 void profiler_finish(void)
@@ -241,9 +262,7 @@ void profiler_finish(void)
 		return;
 	if (P.window_cycles)
 		close_window("cut");
-	for (uint32_t w = 0; w < P.n_words; w++)
-		if (P.pc_cycles[w])
-			fprintf(P.out, "P %x %llu\n", w << 1, (unsigned long long)P.pc_cycles[w]);
+	dump_pcs();
 	if (fclose(P.out) != 0)
 		diag("profile: cannot write '%s': %s", opt.profile, strerror(errno));
 	g_profiling = 0;

@@ -78,3 +78,15 @@ def test_a_users_test_asserts_on_functions(profile_steps) -> None:  # noqa: ANN0
         p.assert_not_called("manf_step")
     with pytest.raises(ProfileError, match="manf_step: .* self cycles in one step, more than 10"):
         p.assert_self_at_most("manf_step", 10)
+
+
+def test_the_link_frame_path_per_ping(tmp_path) -> None:  # noqa: ANN001
+    frames = collect.pings(size=16, count=30, folder=tmp_path / "frame")
+    assert frames.windows == 30
+    crc = frames.function("crc16")
+    assert crc is not None and (crc.calls == 2).all()  # the request checked, the reply made
+    whole = collect.pings(size=16, count=30, what="exchange", folder=tmp_path / "exchange")
+    rx = whole.function("__vector_25")  # USART0_RX: one interrupt a received byte
+    assert rx is not None and int(rx.calls[0]) == 30 * 22  # 16 + type, seq, CRC, COBS, 0x00
+    # everything the frame path does happens in the exchange too
+    assert whole.window_cycles[0] / 30 > np.median(frames.window_cycles)

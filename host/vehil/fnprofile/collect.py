@@ -25,6 +25,7 @@ from vehil.fnprofile.elfmap import ElfMap, _instruction_words
 from vehil.fnprofile.model import Profile
 
 FRAME_FUNCTION = "end_of_frame"  # firmware/lib/board/dispatch.c
+IDLE_FUNCTION = "uart_wait_byte"  # firmware/src/uart.c: the main loop's wait for a byte
 
 
 def _board_class(name: str) -> type[SimavrBoard]:
@@ -149,20 +150,16 @@ def pings(
     target = s.board(board, timeout_s=timeout_s)
     with target.session() as link:
         run_ping(link, count=3, size=size)
-        if what == "exchange":
-            _cut(target)
+        _cut(target)  # what the boot and the warm-up did is segment 0
         run_ping(link, count=count, size=size)
-        if what == "exchange":
-            _cut(target)
-    profile = s.read()
-    profile.per = count if what == "exchange" else 1
-    if what == "frame":  # the warm-up's and the boot's frames go
-        keep = profile.windows - count
-        profile.self_cycles = profile.self_cycles[:, keep:]
-        profile.calls = profile.calls[:, keep:]
-        profile.how = profile.how[keep:]
-    elif what == "exchange":
-        profile.self_cycles = profile.self_cycles[:, 1:2]
-        profile.calls = profile.calls[:, 1:2]
-        profile.how = profile.how[1:2]
+        _cut(target)
+    profile = Profile.read(s.output, s.elf, what, segment=1)
+    if what == "exchange":
+        profile.per = count
+        profile.idle = IDLE_FUNCTION
+    elif profile.windows != count:
+        raise VehilError(
+            f"{count} PINGs gave {profile.windows} frame windows: the frame path's code "
+            f"({FRAME_FUNCTION}) is not one stretch the window can follow in this image"
+        )
     return profile

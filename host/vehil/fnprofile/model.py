@@ -54,21 +54,28 @@ class Profile:
     pc_cycles: dict[int, int]  # byte address -> cycles, all windows
     elf: ElfMap | None = field(default=None, repr=False)
     per: int = 1  # exchanges (or steps) in one window
+    idle: str | None = None  # the function whose own cycles are waiting, not work
 
     # --- reading the bridge's file
 
     @classmethod
-    def read(cls, path: Path, elf: ElfMap, what: str) -> Profile:
+    def read(cls, path: Path, elf: ElfMap, what: str, segment: int = 0) -> Profile:
+        """The bridge's output; `segment`: the part between two cuts (SIGUSR1) to keep."""
         nodes: dict[int, tuple[int, int]] = {}
         windows: list[tuple[str, dict[int, tuple[int, int]]]] = []
         pcs: dict[int, int] = {}
         current: dict[int, tuple[int, int]] | None = None
+        part = 0
         for raw in path.read_text().splitlines():
             rec = raw.split()
             if not rec:
                 continue
             if rec[0] == "N":
                 nodes[int(rec[1])] = (int(rec[2]), int(rec[3]))
+            elif rec[0] == "C":
+                part += 1
+            elif part != segment:
+                continue
             elif rec[0] == "W":
                 current = {}
                 windows.append((rec[3], current))

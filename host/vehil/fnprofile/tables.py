@@ -4,6 +4,7 @@ windows' totals, for the terminal (rich) and for Markdown reports."""
 from __future__ import annotations
 
 import numpy as np
+from rich.markup import escape
 from rich.table import Table
 
 from vehil.fnprofile.model import Profile
@@ -64,6 +65,13 @@ def summary_lines(profile: Profile, result_cycles: np.ndarray | None = None) -> 
         f"{w.max():,.0f} cycles (min / median / max) counted per {unit}, of which interrupts "
         f"that landed in it {irq.min():,.0f} / {np.median(irq):,.0f} / {irq.max():,.0f}"
     ]
+    idle = profile.function(profile.idle) if profile.idle else None
+    if idle is not None:
+        busy = (profile.window_cycles - idle.self) / per
+        lines.append(
+            f"  not waiting (all but {idle.name}'s own cycles, the idle loop): "
+            f"median {np.median(busy):,.0f} cycles per {unit}"
+        )
     for name, c in sorted(profile.interrupts().items()):
         c = c / per
         lines.append(f"  {name}: median {np.median(c):,.0f}, max {c.max():,.0f} cycles per {unit}")
@@ -89,7 +97,7 @@ def flat_table(profile: Profile, title: str, limit: int = 30) -> Table:
     for i, col in enumerate(FLAT_HEADER):
         t.add_column(col, justify="left" if i == 0 else "right")
     for row in flat_rows(profile, limit):
-        t.add_row(*row)
+        t.add_row(escape(row[0]), *row[1:])  # "[libgcc]" is text, not markup
     t.caption = " ".join(
         [
             "self: the function's own instructions; incl.: with what it calls; cycles per",
@@ -107,7 +115,9 @@ def lines_table(profile: Profile, limit: int = 15) -> Table:
     total = float(profile.window_cycles.sum()) or 1.0
     for ln in profile.hot_lines(limit):
         where = f"{ln.line.file}:{ln.line.line}" if ln.line else "(no line table)"
-        t.add_row(where, ln.function, f"{ln.cycles / n:,.1f}", f"{ln.cycles / total * 100:.1f} %")
+        t.add_row(
+            where, escape(ln.function), f"{ln.cycles / n:,.1f}", f"{ln.cycles / total * 100:.1f} %"
+        )
     return t
 
 
