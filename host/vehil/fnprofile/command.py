@@ -45,8 +45,8 @@ def run_profile(console: Console, session: collect.Session, run: Any) -> None:
     if report.exists():
         with report.open("a") as f:
             f.write(
-                "\n[Where each step's cycles go](profile/profile.md) "
-                "(flame graph: profile/flame.png)\n"
+                "\n## Where each step's cycles go\n\n![flame graph](profile/flame.png)\n\n"
+                "Per function and source line: [profile/profile.md](profile/profile.md)\n"
             )
 
 
