@@ -48,10 +48,13 @@ def read_csv(path: Path) -> Columns:
     if not rows:
         raise LogError(f"{path}: empty file; expected a header of `name [unit]` cells")
     names, units = [], {}
-    for cell in rows[0]:
+    for j, cell in enumerate(rows[0]):
         m = _HEADER.match(cell)
         if not m:
-            raise LogError(f"{path}: header cell {cell!r} is not `name [unit]`")
+            raise LogError(
+                f"{path}: line {lines[0]}, column {j + 1}: header cell {cell!r} is not "
+                "`name [unit]`"
+            )
         names.append(m["name"])
         units[m["name"]] = m["unit"] or ""
     data = np.empty((len(rows) - 1, len(names)))

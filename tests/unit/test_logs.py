@@ -55,6 +55,7 @@ def test_a_csv_log_is_resampled_onto_the_sample_grid(tmp_path) -> None:  # noqa:
         ("time,speed\n0,1\n0.1,2\n", {}, r"no time column 't'"),
         ("t,speed\n0,1\n0,2\n", {}, r"line 3, column t: time 0 does not increase on 0 before"),
         ("", {}, r"empty file"),
+        ("t [s],[1]\n0,1\n", {}, r"line 1, column 2: header cell '\[1\]' is not"),
     ],
 )
 def test_bad_logs_are_refused_with_file_and_place(tmp_path, text, kw, message) -> None:  # noqa: ANN001
