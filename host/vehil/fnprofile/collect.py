@@ -37,7 +37,7 @@ def _board_class(name: str) -> type[SimavrBoard]:
             if issubclass(c, SimavrBoard) and not issubclass(c, SimavrBootloaderBoard)
         ]
         raise VehilError(
-            f"--functions counts cycles in the simavr bridge: board {name!r} cannot; "
+            f"profiling by function counts cycles in the simavr bridge: board {name!r} cannot; "
             f"use one of {', '.join(profilable)}"
         )
     return cls
