@@ -1,10 +1,14 @@
 """Seed 000's board estimators (MANF, UIIEKF) in the native build against their references."""
 
+import numpy as np
 import pytest
 
 from vehil.boards import open_board
 from vehil.errors import BoardError
 from vehil.estimators import uiiekf
+from vehil.protocol.schema import SCHEMA
+
+DIVERGED = SCHEMA.status["DIVERGED"]
 
 
 @pytest.mark.parametrize(
@@ -15,6 +19,7 @@ from vehil.estimators import uiiekf
         "manf-abs-snow",
         "uiiekf3-abs-dry",
         "uiiekf-wet-mismatch",
+        "uiiekf3-other-car",
     ],
 )
 def test_board_estimators_follow_their_references(run_scenario, name) -> None:  # noqa: ANN001
@@ -27,3 +32,39 @@ def test_uiiekf_refuses_a_state_count_it_does_not_have(built) -> None:  # noqa: 
     with open_board("native") as link, pytest.raises(BoardError, match="BAD_PARAM") as exc:
         link.configure("uiiekf", "F32", spec.encode_params(values, "F32"))
     assert exc.value.detail == [p.name for p in spec.params].index("n_states")
+
+
+def test_the_uiiekf_flags_a_car_whose_constants_it_was_not_given(run_scenario) -> None:  # noqa: ANN001
+    """The same drive of another car: told its values, the filter holds 0.15 m/s and stays
+    healthy; with the Pride's it is metres per second off and says so where the
+    reference does."""
+    told = run_scenario("uiiekf3-other-car", board="native")
+    told.assert_passed()
+    assert told.figures.status["DIVERGED"] == 0
+    wrong = run_scenario("uiiekf3-other-car-pride-model", board="native")
+    wrong.assert_passed()
+    assert wrong.figures.outputs["v"].truth.rmse > 1.0
+    flagged = (wrong.run.status & DIVERGED) != 0
+    reference = uiiekf.Uiiekf(wrong.run.prepared.scenario.params)
+    for u in wrong.run.prepared.inputs:
+        reference.step(u)
+    assert flagged.mean() > 0.5
+    assert np.mean(flagged == np.array(reference.diverged)) > 0.99
+
+
+def test_the_uiiekf_flags_a_dead_sensor_and_wheels_read_backwards(built) -> None:  # noqa: ANN001
+    spec = uiiekf.SPEC
+    dead = [[92.6, 92.6]] * 50 + [[92.6 - 0.1 * k, 0.0] for k in range(100)]  # rear reads 0
+    backwards = [[-50.0, -50.0]] * 10  # v̂(0) = R ω_f(0) = -13.5 m/s, then the model blows up
+    for n_states in (3, 5):
+        for frames, why in ((dead, "innovations"), (backwards, "speed")):
+            with open_board("native") as link:
+                values = spec.param_values({"n_states": n_states})
+                link.configure("uiiekf", "F32", spec.encode_params(values, "F32"))
+                requests = (("SAMPLE", {"inputs": spec.encode_inputs(u, "F32")}) for u in frames)
+                status = [r.fields()["status"] for r in link.pipeline(requests)]
+            flagged = [bool(s & DIVERGED) for s in status]
+            if why == "innovations":  # healthy while the wheels agree, flagged once one dies
+                assert not any(flagged[:50]) and all(flagged[55:]), (n_states, flagged)
+            else:  # a speed below zero at once; P_vv past v_max² once the model runs away
+                assert flagged[0] and all(flagged[5:]), (n_states, flagged)

@@ -44,4 +44,5 @@ def test_the_printed_iteration_shrinks_p_faster_than_one_pass() -> None:
     for x in u[:50]:
         printed.step(x)
         once.step(x)
-    assert np.trace(printed.P) < np.trace(once.P)  # the same z applied five times
+    seen = [0, -2, -1]  # v_x and the wheels (v_y and r are not seen in a straight line)
+    assert np.all(np.diag(printed.P)[seen] < np.diag(once.P)[seen])  # z applied five times

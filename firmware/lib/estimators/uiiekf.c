@@ -4,214 +4,323 @@
 #include <string.h>
 
 #include "estimators/params.h"
-#include "linalg/mat_f32.h"
 #include "proto/wire.h"
 
-enum { P_T, P_N, P_ITER, P_FORM, P_SURF, P_P0, P_QV, P_QLAT, P_QW, P_R, N_PARAMS };
+enum {
+    P_T, P_N, P_ITER, P_FORM, P_C1, P_C2, P_C3, P_P0, P_QV, P_QLAT, P_QW, P_R,
+    P_M, P_RW, P_IW, P_KB, P_PSI, P_HCG, P_LF, P_LR, P_VMAX, P_NISMAX, N_PARAMS
+};
 
 static const param_range_t ranges[N_PARAMS] = {
-    {1e-4f, 0.1f, 0}, {3.0f, 5.0f, 0},   {1.0f, 10.0f, 0}, {0.0f, 1.0f, 0},   {0.0f, 6.0f, 0},
-    {1e-6f, 1e3f, 0}, {0.0f, 10.0f, 0},  {0.0f, 10.0f, 0}, {0.0f, 100.0f, 0}, {1e-6f, 100.0f, 0},
+    {1e-4f, 0.1f, 0},     {3.0f, 5.0f, 0},   {1.0f, 10.0f, 0},  {0.0f, 1.0f, 0},
+    {0.0f, 2.0f, 0},      {1.0f, 500.0f, 0}, {0.0f, 1.0f, 0},   {1e-6f, 1e3f, 0},
+    {0.0f, 10.0f, 0},     {0.0f, 10.0f, 0},  {0.0f, 100.0f, 0}, {1e-6f, 100.0f, 0},
+    {100.0f, 5000.0f, 0}, {0.1f, 1.0f, 0},   {0.05f, 50.0f, 0}, {0.0f, 1.0f, 0},
+    {0.1f, 1.5f, 0},      {0.1f, 2.0f, 0},   {0.3f, 4.0f, 0},   {0.3f, 4.0f, 0},
+    {1.0f, 200.0f, 0},    {1.0f, 1e6f, 0},
 };
 
-/* Table 2 (Pride) and the Burckhardt surfaces of note §1.5, as in plants/braking.py. */
-#define M_VEH 850.0f
-#define R_W 0.27f
-#define I_W 4.15f
-#define PSI 0.85f
-#define H_CG 0.57f
-#define W_VEH 8330.0f
-#define RHO 1.027f
-#define L_R 1.425f
-#define L_F 0.92f
+/* Table 2's values the filter does not take as parameters (yaw inertia, drag), gravity,
+ * and the health check's averaging time and standstill speed. */
 #define I_Z 1627.0f
-#define K_B 0.7f
-#define C_D 0.32f
-#define H_A 1.16f
-#define A_F 1.87f
-#define L_WB (L_F + L_R)
+#define DRAG_MOMENT (0.5f * 1.027f * 0.32f * 1.87f * 1.16f) /* ½ ρ C_d A_f H_a */
+#define GRAVITY 9.81f
+#define NIS_WINDOW 1.0f /* s */
+#define V_MIN 1.0f      /* m/s */
 
-static const float surfaces[7][3] = {
-    {1.2801f, 23.99f, 0.52f},   {0.857f, 33.822f, 0.347f},  {1.1973f, 25.168f, 0.5373f},
-    {1.3713f, 6.4565f, 0.6691f}, {0.4004f, 33.708f, 0.1204f}, {0.1946f, 94.129f, 0.0646f},
-    {0.05f, 306.39f, 0.0f},
-};
+/* One wheel's braking-positive forces and their partials by (v, v_lat, ω):
+ * s_x = 1 - R ω v / q, s_y = -R ω v_lat / q with q = v² + v_lat², μ(s) = ψ (c1 (1 - e^{-c2 s})
+ * - c3 s), F = (μ/s) F_z s; ∂F = F_z (μ/s ∂s + (μ' - μ/s) n (n·∂s)) + (μ/s) s ∂F_z, n = s/|s|. */
+typedef struct {
+    float f_x, f_y, dx[3], dy[3];
+} wheel_t;
 
-static float mu_over_slip(float slip, const float *c)
+/* v_lat = 0 (a straight line): s_y = 0 and s = |s_x|, so F_x = sgn(s_x) μ(|s_x|) F_z and
+ * ∂F_x = μ'(|s_x|) F_z ∂s_x; the one lateral partial is ∂F_y/∂v_lat = -(μ/s) F_z R ω / v²,
+ * needed by the 5-state filter only (`lateral`). */
+static void wheel_straight(const uiiekf_params_t *p, float w, float v, float f_z, float df_z,
+                           uint8_t lateral, wheel_t *o)
 {
-    if (slip < 1e-6f) {
-        return PSI * (c[0] * c[1] - c[2]);
+    float inv_v = 1.0f / v, a = p->r_w * w * inv_v;
+    float s_x = 1.0f - a, s = fabsf(s_x), ex = expf(-p->c2 * s);
+    float mu = p->psi_c1 * (1.0f - ex) - p->psi_c3 * s;
+    float signed_mu = s_x < 0.0f ? -mu : mu;
+    float k = (p->psi_c1c2 * ex - p->psi_c3) * f_z * inv_v; /* μ' F_z / v */
+    *o = (wheel_t){.f_x = signed_mu * f_z, .dx = {k * a + signed_mu * df_z, 0.0f, -k * p->r_w}};
+    if (lateral) {
+        o->dy[1] = -(s < 1e-6f ? p->g0 : mu / s) * f_z * a * inv_v;
     }
-    return PSI * (c[0] * (1.0f - expf(-c[1] * slip)) - c[2] * slip) / slip;
 }
 
-/* ẋ of eqs. 2-16, consistent reading, δ = 0 and no brake torque (the unknown input). */
-static void derivatives(const float *tire, const float *x, float d_x, float *dx)
+static void wheel(const uiiekf_params_t *p, float w, float v, float v_lat, float f_z, float df_z,
+                  uint8_t lateral, wheel_t *o)
 {
-    float v_x = x[0] > 0.1f ? x[0] : 0.1f, v_y = x[1], r = x[2];
-    float drag = 0.5f * RHO * C_D * A_F * v_x * v_x * H_A / (2.0f * L_WB);
-    float transfer = M_VEH * d_x * H_CG / (2.0f * L_WB);
-    float f_z[2] = {W_VEH * L_R / (2.0f * L_WB) - transfer - drag,
-                    W_VEH * L_F / (2.0f * L_WB) + transfer + drag};
-    float f_x[2], f_y[2];
+    if (v_lat == 0.0f) {
+        wheel_straight(p, w, v, f_z, df_z, lateral, o);
+        return;
+    }
+    float inv_q = 1.0f / (v * v + v_lat * v_lat);
+    float a = p->r_w * w * inv_q;
+    float s_x = 1.0f - a * v, s_y = -a * v_lat;
+    float c = a * (v * v - v_lat * v_lat) * inv_q, e = 2.0f * a * v * v_lat * inv_q;
+    const float ds_x[3] = {c, e, -p->r_w * v * inv_q}, ds_y[3] = {e, -c, -p->r_w * v_lat * inv_q};
+    float s = sqrtf(s_x * s_x + s_y * s_y), g, h, n_x, n_y;
+    if (s < 1e-6f) { /* μ/s at its limit; μ' - μ/s -> 0 */
+        g = p->g0;
+        h = n_x = n_y = 0.0f;
+    } else {
+        float inv_s = 1.0f / s, ex = expf(-p->c2 * s);
+        g = (p->psi_c1 * (1.0f - ex) - p->psi_c3 * s) * inv_s;
+        h = p->psi_c1c2 * ex - p->psi_c3 - g;
+        n_x = s_x * inv_s;
+        n_y = s_y * inv_s;
+    }
+    float gz = g * f_z, hz = h * f_z;
+    o->f_x = gz * s_x;
+    o->f_y = gz * s_y;
+    for (uint8_t k = 0; k < 3u; k++) {
+        float dn = hz * (n_x * ds_x[k] + n_y * ds_y[k]);
+        o->dx[k] = gz * ds_x[k] + n_x * dn;
+        o->dy[k] = gz * ds_y[k] + n_y * dn;
+    }
+    o->dx[0] += g * s_x * df_z;
+    o->dy[0] += g * s_y * df_z;
+}
+
+/* ẋ of eqs. 2-16 (δ = 0, no brake torque: it is the unknown input) and A = ∂ẋ/∂x for
+ * the five model states; d_x, the model's last v̇_x, is held in A. */
+static void model(const uiiekf_params_t *p, const float *x, float d_x, float *f, float A[5][5])
+{
+    float v_y = x[1], r = x[2];
+    float v = x[0] > 0.1f ? x[0] : 0.1f, dv = x[0] > 0.1f ? 1.0f : 0.0f;
+    float transfer = p->transfer * d_x, drag = p->drag * v * v, ddrag = 2.0f * p->drag * v * dv;
+    const float f_z[2] = {p->load_f - transfer - drag, p->load_r + transfer + drag};
+    const float lever[2] = {p->l_f, -p->l_r};
+    wheel_t wh[2];
+    memset(A, 0, 25 * sizeof(float));
     for (uint8_t i = 0; i < 2u; i++) {
-        float lever = i == 0u ? L_F : -L_R;
-        float w = x[3u + i];
-        float v_lat = v_y + lever * r;
-        float v_w = sqrtf(v_lat * v_lat + v_x * v_x);
-        float alpha = -atan2f(v_lat, v_x);
-        float s_x = (v_w - R_W * w * cosf(alpha)) / v_w; /* braking positive */
-        float s_y = R_W * w * sinf(alpha) / v_w;
-        float k = mu_over_slip(sqrtf(s_x * s_x + s_y * s_y), tire) * (f_z[i] > 0.0f ? f_z[i] : 0.0f);
-        f_x[i] = k * s_x;
-        f_y[i] = k * s_y;
+        uint8_t loaded = f_z[i] > 0.0f;
+        wheel(p, x[3u + i], v, v_y + lever[i] * r, loaded ? f_z[i] : 0.0f,
+              loaded ? (i == 0u ? -ddrag : ddrag) : 0.0f, p->n == 5u, &wh[i]);
+        const wheel_t *w = &wh[i];
+        /* by state: v_x (through v), v_y and r (through v_lat), this wheel's ω */
+        const float dfx[4] = {dv * w->dx[0], w->dx[1], lever[i] * w->dx[1], w->dx[2]};
+        const float dfy[4] = {dv * w->dy[0], w->dy[1], lever[i] * w->dy[1], w->dy[2]};
+        const uint8_t col[4] = {0, 1, 2, (uint8_t)(3u + i)};
+        float yaw = p->two_inv_i_z * lever[i];
+        for (uint8_t k = 0; k < 4u; k++) {
+            A[0][col[k]] -= p->two_inv_m * dfx[k];
+            A[1][col[k]] += p->two_inv_m * dfy[k];
+            A[2][col[k]] += yaw * dfy[k];
+            A[3u + i][col[k]] = p->r_w_inv_i_w * dfx[k];
+        }
     }
-    dx[0] = 2.0f * (-f_x[0] - f_x[1]) / M_VEH + r * v_y;
-    dx[1] = 2.0f * (f_y[0] + f_y[1]) / M_VEH - r * v_x;
-    dx[2] = 2.0f * (L_F * f_y[0] - L_R * f_y[1]) / I_Z;
-    dx[3] = R_W * f_x[0] / I_W;
-    dx[4] = R_W * f_x[1] / I_W;
+    f[0] = -p->two_inv_m * (wh[0].f_x + wh[1].f_x) + r * v_y;
+    f[1] = p->two_inv_m * (wh[0].f_y + wh[1].f_y) - r * v;
+    f[2] = p->two_inv_i_z * (p->l_f * wh[0].f_y - p->l_r * wh[1].f_y);
+    f[3] = p->r_w_inv_i_w * wh[0].f_x;
+    f[4] = p->r_w_inv_i_w * wh[1].f_x;
+    A[0][1] += r;
+    A[0][2] += v_y;
+    A[1][0] -= r * dv;
+    A[1][2] -= v;
 }
 
-/* ẋ in the filter's own states (all five, or v_x, ω_f, ω_r). */
-static void xdot(const uiiekf_state_t *st, const float *x, float *dx)
+/* The filter's states among the model's five. */
+static const uint8_t full_index[2][5] = {{0, 3, 4, 0, 0}, {0, 1, 2, 3, 4}};
+
+/* Eq. 37: x = x + T ẋ, P = J P Jᵀ + Q with J = I + T A. */
+static void time_update(uiiekf_state_t *st)
 {
-    float full[5], d[5];
-    if (st->p.n == 5u) {
-        memcpy(full, x, sizeof full);
-    } else {
-        full[0] = x[0];
-        full[1] = full[2] = 0.0f;
-        full[3] = x[1];
-        full[4] = x[2];
+    const uiiekf_params_t *p = &st->p;
+    uint8_t n = p->n;
+    const uint8_t *idx = full_index[n == 5u];
+    float x5[5] = {st->x[0], 0.0f, 0.0f, 0.0f, 0.0f}, f[5], A[5][5], J[5][5], M[5][5];
+    for (uint8_t i = 1; i < n; i++) {
+        x5[idx[i]] = st->x[i];
     }
-    derivatives(st->p.tire, full, st->d_x, d);
-    if (st->p.n == 5u) {
-        memcpy(dx, d, sizeof d);
-    } else {
-        dx[0] = d[0];
-        dx[1] = d[3];
-        dx[2] = d[4];
+    model(p, x5, st->d_x, f, A);
+    st->d_x = f[0];
+    for (uint8_t i = 0; i < n; i++) {
+        st->x[i] += p->T * f[idx[i]];
+        for (uint8_t j = 0; j < n; j++) {
+            J[i][j] = (i == j ? 1.0f : 0.0f) + p->T * A[idx[i]][idx[j]];
+        }
     }
+    /* M = J P, then P = M Jᵀ on the upper triangle, over J's non-zero entries (in a
+     * straight line the lateral block decouples: 11 of 25 in the 5-state filter). */
+    uint8_t nz[5][5], n_nz[5];
+    for (uint8_t i = 0; i < n; i++) {
+        n_nz[i] = 0;
+        for (uint8_t k = 0; k < n; k++) {
+            if (J[i][k] != 0.0f) {
+                nz[i][n_nz[i]++] = k;
+            }
+        }
+    }
+    for (uint8_t i = 0; i < n; i++) {
+        for (uint8_t j = 0; j < n; j++) {
+            float s = 0.0f;
+            for (uint8_t m = 0; m < n_nz[i]; m++) {
+                s += J[i][nz[i][m]] * st->P[nz[i][m]][j];
+            }
+            M[i][j] = s;
+        }
+    }
+    for (uint8_t i = 0; i < n; i++) {
+        for (uint8_t j = i; j < n; j++) {
+            float s = 0.0f;
+            for (uint8_t m = 0; m < n_nz[j]; m++) {
+                s += M[i][nz[j][m]] * J[j][nz[j][m]];
+            }
+            st->P[i][j] = st->P[j][i] = s;
+        }
+    }
+    st->P[0][0] += p->q_v;
+    for (uint8_t i = 1; i + 2u < n; i++) {
+        st->P[i][i] += p->q_lat;
+    }
+    st->P[n - 2u][n - 2u] += p->q_w;
+    st->P[n - 1u][n - 1u] += p->q_w;
+}
+
+/* One pass of eq. 36: L = K + (I - K C) B (Bᵀ Cᵀ F⁻¹ C B)⁻¹ Bᵀ Cᵀ F⁻¹, x += L e and
+ * P = (I - L C) P (I - L C)ᵀ + r L Lᵀ (Joseph's form: float32 keeps it accurate where P
+ * shrinks a thousandfold), which with C picking the wheels (rows a, a + 1) is
+ * P - L (C P) - N Lᵀ, N = P Cᵀ - L C P Cᵀ - r L. A state the wheels do not see (its rows a,
+ * a + 1 of P zero: v_y and r in a straight line) has L_i = N_i = 0 and keeps its rows.
+ * *nis (if not NULL): eᵀ F⁻¹ e less its part along C B, a χ²(1) value. */
+static uint8_t measurement_update(uiiekf_state_t *st, const float *z, float *nis)
+{
+    const uiiekf_params_t *p = &st->p;
+    uint8_t n = p->n, a = (uint8_t)(n - 2u), b = (uint8_t)(n - 1u);
+    float (*P)[UIIEKF_MAX_STATES] = st->P;
+    float r = p->r_meas, cb0 = p->cb[0], cb1 = p->cb[1];
+    float det = (P[a][a] + r) * (P[b][b] + r) - P[a][b] * P[a][b];
+    if (!(det > 0.0f)) {
+        return STATUS_SINGULAR;
+    }
+    float inv_det = 1.0f / det; /* F⁻¹ = [f0 f1; f1 f3] */
+    float f0 = (P[b][b] + r) * inv_det, f1 = -P[a][b] * inv_det, f3 = (P[a][a] + r) * inv_det;
+    float w0 = cb0 * f0 + cb1 * f1, w1 = cb0 * f1 + cb1 * f3; /* Bᵀ Cᵀ F⁻¹ */
+    float g = w0 * cb0 + w1 * cb1;
+    if (!(g > 0.0f)) {
+        return STATUS_SINGULAR;
+    }
+    float inv_g = 1.0f / g;
+    float e0 = z[0] - st->x[a], e1 = z[1] - st->x[b];
+    if (nis != NULL) {
+        float we = w0 * e0 + w1 * e1;
+        *nis = e0 * (f0 * e0 + f1 * e1) + e1 * (f1 * e0 + f3 * e1) - we * we * inv_g;
+    }
+    float L[UIIEKF_MAX_STATES][2], N[UIIEKF_MAX_STATES][2], pa[UIIEKF_MAX_STATES],
+        pb[UIIEKF_MAX_STATES];
+    uint8_t seen[UIIEKF_MAX_STATES];
+    for (uint8_t i = 0; i < n; i++) {
+        pa[i] = P[a][i];
+        pb[i] = P[b][i];
+        seen[i] = pa[i] != 0.0f || pb[i] != 0.0f;
+        if (!seen[i]) {
+            continue;
+        }
+        float k0 = pa[i] * f0 + pb[i] * f1, k1 = pa[i] * f1 + pb[i] * f3; /* K = P Cᵀ F⁻¹ */
+        float b_i = i == a ? cb0 : (i == b ? cb1 : 0.0f);                 /* B's rows */
+        float v = (b_i - (k0 * cb0 + k1 * cb1)) * inv_g;                  /* (I - K C) B / g */
+        L[i][0] = k0 + v * w0;
+        L[i][1] = k1 + v * w1;
+        st->x[i] += L[i][0] * e0 + L[i][1] * e1;
+    }
+    for (uint8_t i = 0; i < n; i++) {
+        if (seen[i]) {
+            N[i][0] = pa[i] - (L[i][0] * pa[a] + L[i][1] * pb[a]) - r * L[i][0];
+            N[i][1] = pb[i] - (L[i][0] * pa[b] + L[i][1] * pb[b]) - r * L[i][1];
+        }
+    }
+    for (uint8_t i = 0; i < n; i++) {
+        for (uint8_t j = i; j < n && seen[i]; j++) {
+            if (seen[j]) {
+                P[i][j] = P[j][i] = P[i][j] - (L[i][0] * pa[j] + L[i][1] * pb[j]) -
+                                    (N[i][0] * L[j][0] + N[i][1] * L[j][1]);
+            }
+        }
+    }
+    return 0;
+}
+
+/* The health check (docs/estimators/uiiekf.md): a variance is negative, or the speed's is
+ * above v_max²; and, on the updated estimate, the windowed NIS passes its limit or the
+ * speed is 3σ outside [0, v_max]. */
+static uint8_t covariance_ok(const uiiekf_state_t *st)
+{
+    uint8_t ok = st->P[0][0] <= st->p.v_max2;
+    for (uint8_t i = 0; i < st->p.n; i++) {
+        ok = ok && st->P[i][i] >= 0.0f;
+    }
+    return ok;
+}
+
+static uint8_t estimate_ok(const uiiekf_state_t *st)
+{
+    const uiiekf_params_t *p = &st->p;
+    float v = st->x[0], var = st->P[0][0], hi = v - p->v_max;
+    return st->nis <= p->nis_max && covariance_ok(st) && !(v < 0.0f && v * v > 9.0f * var) &&
+           !(hi > 0.0f && hi * hi > 9.0f * var);
 }
 
 static void reset(uiiekf_state_t *st)
 {
-    uint8_t n = st->p.n;
     memset(st->x, 0, sizeof st->x);
     memset(st->P, 0, sizeof st->P);
-    for (uint8_t i = 0; i < n; i++) {
-        st->P[i * n + i] = st->p.p0;
+    for (uint8_t i = 0; i < st->p.n; i++) {
+        st->P[i][i] = st->p.p0;
     }
     st->d_x = 0.0f;
+    st->nis = 0.0f;
     st->started = 0;
-}
-
-/* One pass of eq. 36: L = K + (I - K C) B (Bᵀ Cᵀ F⁻¹ C B)⁻¹ Bᵀ Cᵀ F⁻¹, then x and P. */
-static uint8_t measurement_update(uiiekf_state_t *st, const float *z, const float *cb)
-{
-    uint8_t n = st->p.n, a = (uint8_t)(n - 2u);
-    float *P = st->P;
-    float r = st->p.r_meas;
-    float F[4] = {P[a * n + a] + r, P[a * n + a + 1u], P[(a + 1u) * n + a], P[(a + 1u) * n + a + 1u] + r};
-    if (!mat_inv2_f32(F)) {
-        return STATUS_SINGULAR;
-    }
-    float K[UIIEKF_MAX_STATES * 2], L[UIIEKF_MAX_STATES * 2];
-    for (uint8_t i = 0; i < n; i++) { /* K = P Cᵀ F⁻¹: C picks the two wheel states */
-        K[2 * i] = P[i * n + a] * F[0] + P[i * n + a + 1u] * F[2];
-        K[2 * i + 1] = P[i * n + a] * F[1] + P[i * n + a + 1u] * F[3];
-    }
-    float w0 = cb[0] * F[0] + cb[1] * F[2], w1 = cb[0] * F[1] + cb[1] * F[3]; /* Bᵀ Cᵀ F⁻¹ */
-    float g = w0 * cb[0] + w1 * cb[1];
-    if (!(g > 1e-30f || g < -1e-30f)) {
-        return STATUS_SINGULAR;
-    }
-    for (uint8_t i = 0; i < n; i++) {
-        float b_i = i == a ? cb[0] : (i == a + 1u ? cb[1] : 0.0f); /* B's non-zero rows */
-        float v = (b_i - (K[2 * i] * cb[0] + K[2 * i + 1] * cb[1])) / g; /* (I - K C) B / g */
-        L[2 * i] = K[2 * i] + v * w0;
-        L[2 * i + 1] = K[2 * i + 1] + v * w1;
-    }
-    float e0 = z[0] - st->x[a], e1 = z[1] - st->x[a + 1u];
-    for (uint8_t i = 0; i < n; i++) {
-        st->x[i] += L[2 * i] * e0 + L[2 * i + 1] * e1;
-    }
-    /* P = (I - L C) P (I - L C)ᵀ + r L Lᵀ, using C's two columns: M = P - L (C P). */
-    float *M = st->tmp;
-    for (uint8_t i = 0; i < n; i++) {
-        for (uint8_t j = 0; j < n; j++) {
-            M[i * n + j] = P[i * n + j] - L[2 * i] * P[a * n + j] - L[2 * i + 1] * P[(a + 1u) * n + j];
-        }
-    }
-    for (uint8_t i = 0; i < n; i++) {
-        for (uint8_t j = 0; j < n; j++) {
-            P[i * n + j] = M[i * n + j] - M[i * n + a] * L[2 * j] - M[i * n + a + 1u] * L[2 * j + 1] +
-                           r * (L[2 * i] * L[2 * j] + L[2 * i + 1] * L[2 * j + 1]);
-        }
-    }
-    return 0;
 }
 
 static uint8_t uiiekf_step(void *state, const uint8_t *in, uint8_t in_len, uint8_t *out,
                            uint8_t *out_len)
 {
     uiiekf_state_t *st = state;
+    const uiiekf_params_t *p = &st->p;
     (void)in_len;
     *out_len = 8;
-    uint8_t n = st->p.n, a = (uint8_t)(n - 2u);
+    uint8_t a = (uint8_t)(p->n - 2u);
     float z[2] = {get_f32(in), get_f32(in + 4)};
+    float d_hat = 0.0f, v_out = st->x[0];
     uint8_t status = 0;
-    float d_hat = 0.0f;
     if (!isfinite(z[0]) || !isfinite(z[1])) {
         status = STATUS_NOT_FINITE;
     } else {
         if (!st->started) {
             st->started = 1;
-            st->x[0] = R_W * z[0]; /* v_x(0) = R ω_f(0) */
+            st->x[0] = p->r_w * z[0]; /* v_x(0) = R ω_f(0) */
             st->x[a] = z[0];
             st->x[a + 1u] = z[1];
         }
-        float cb[2] = {-K_B * st->p.T / I_W, -(1.0f - K_B) * st->p.T / I_W}; /* C B */
-        float e0 = z[0] - st->x[a], e1 = z[1] - st->x[a + 1u];
-        d_hat = (cb[0] * e0 + cb[1] * e1) / (cb[0] * cb[0] + cb[1] * cb[1]);
-        uint8_t passes = st->p.form ? 1u : st->p.iterations;
+        /* d̂ = (C B)⁺ e, from the innovation before the update */
+        d_hat = (p->cb[0] * (z[0] - st->x[a]) + p->cb[1] * (z[1] - st->x[a + 1u])) * p->inv_cb2;
+        uint8_t passes = p->form ? 1u : p->iterations;
+        float nis = 0.0f;
         for (uint8_t i = 0; i < passes && status == 0; i++) {
-            status |= measurement_update(st, z, cb);
+            status |= measurement_update(st, z, i == 0u ? &nis : NULL);
         }
-        /* Time update, eq. 37: J = I + T ∂ẋ/∂x by forward differences, P = J P Jᵀ + Q. */
-        float dx[UIIEKF_MAX_STATES], dxh[UIIEKF_MAX_STATES], xh[UIIEKF_MAX_STATES];
-        xdot(st, st->x, dx);
-        for (uint8_t j = 0; j < n; j++) {
-            memcpy(xh, st->x, sizeof xh);
-            float h = 1e-3f * (fabsf(st->x[j]) > 1.0f ? fabsf(st->x[j]) : 1.0f);
-            xh[j] += h;
-            xdot(st, xh, dxh);
-            for (uint8_t i = 0; i < n; i++) {
-                st->J[i * n + j] = (i == j ? 1.0f : 0.0f) + st->p.T * (dxh[i] - dx[i]) / h;
-            }
+        if (status == 0 && (z[0] >= p->w_min || z[1] >= p->w_min)) {
+            st->nis += p->alpha * (nis - st->nis);
         }
-        d_hat = isfinite(d_hat) ? d_hat : 0.0f;
-        put_f32(out, st->x[0]);
-        st->d_x = dx[0];
-        for (uint8_t i = 0; i < n; i++) {
-            st->x[i] += st->p.T * dx[i];
+        uint8_t healthy = estimate_ok(st);
+        v_out = st->x[0];
+        time_update(st);
+        if (!healthy || !covariance_ok(st)) {
+            status |= STATUS_DIVERGED;
         }
-        mat_mul_f32(st->J, st->P, n, n, n, st->tmp);
-        mat_mul_bt_f32(st->tmp, st->J, n, n, n, st->P);
-        st->P[0] += st->p.q_v;
-        for (uint8_t i = 1; i + 2u < n; i++) {
-            st->P[i * n + i] += st->p.q_lat;
-        }
-        st->P[a * n + a] += st->p.q_w;
-        st->P[(a + 1u) * n + a + 1u] += st->p.q_w;
-        if (!isfinite(st->x[0]) || !isfinite(st->P[0])) {
+        if (!isfinite(st->x[0]) || !isfinite(st->P[0][0])) {
             status |= STATUS_NOT_FINITE;
         }
-        put_f32(out + 4, d_hat);
-        return status;
+        d_hat = isfinite(d_hat) ? d_hat : 0.0f;
     }
-    put_f32(out, st->x[0]);
+    put_f32(out, v_out);
     put_f32(out + 4, d_hat);
     return status;
 }
@@ -223,21 +332,50 @@ static uint8_t uiiekf_configure(void *state, uint8_t mode, const uint8_t *params
     if (bad != 0) {
         return bad;
     }
-    uint8_t n = (uint8_t)get_f32(params + 4u * P_N);
+    float v[N_PARAMS];
+    for (uint8_t i = 0; i < N_PARAMS; i++) {
+        v[i] = get_f32(params + 4u * i);
+    }
+    uint8_t n = (uint8_t)v[P_N];
     if (n != 3u && n != 5u) {
         return 1u + P_N;
     }
-    uiiekf_params_t *p = &st->p;
-    p->T = get_f32(params + 4u * P_T);
-    p->n = n;
-    p->iterations = (uint8_t)get_f32(params + 4u * P_ITER);
-    p->form = get_f32(params + 4u * P_FORM) >= 0.5f;
-    memcpy(p->tire, surfaces[(uint8_t)get_f32(params + 4u * P_SURF)], sizeof p->tire);
-    p->p0 = get_f32(params + 4u * P_P0);
-    p->q_v = get_f32(params + 4u * P_QV);
-    p->q_lat = get_f32(params + 4u * P_QLAT);
-    p->q_w = get_f32(params + 4u * P_QW);
-    p->r_meas = get_f32(params + 4u * P_R);
+    float L2 = 2.0f * (v[P_LF] + v[P_LR]), inv_L2 = 1.0f / L2, weight = v[P_M] * GRAVITY;
+    float T_iw = v[P_T] / v[P_IW], cb0 = -v[P_KB] * T_iw, cb1 = -(1.0f - v[P_KB]) * T_iw;
+    float psi = v[P_PSI], c1 = v[P_C1], c2 = v[P_C2], c3 = v[P_C3];
+    st->p = (uiiekf_params_t){
+        .T = v[P_T],
+        .p0 = v[P_P0],
+        .q_v = v[P_QV],
+        .q_lat = v[P_QLAT],
+        .q_w = v[P_QW],
+        .r_meas = v[P_R],
+        .r_w = v[P_RW],
+        .two_inv_m = 2.0f / v[P_M],
+        .two_inv_i_z = 2.0f / I_Z,
+        .r_w_inv_i_w = v[P_RW] / v[P_IW],
+        .l_f = v[P_LF],
+        .l_r = v[P_LR],
+        .load_f = weight * v[P_LR] * inv_L2,
+        .load_r = weight * v[P_LF] * inv_L2,
+        .transfer = v[P_M] * v[P_HCG] * inv_L2,
+        .drag = DRAG_MOMENT * inv_L2,
+        .psi_c1 = psi * c1,
+        .c2 = c2,
+        .psi_c3 = psi * c3,
+        .psi_c1c2 = psi * c1 * c2,
+        .g0 = psi * (c1 * c2 - c3),
+        .cb = {cb0, cb1},
+        .inv_cb2 = 1.0f / (cb0 * cb0 + cb1 * cb1),
+        .alpha = v[P_T] / NIS_WINDOW,
+        .nis_max = v[P_NISMAX],
+        .v_max = v[P_VMAX],
+        .v_max2 = v[P_VMAX] * v[P_VMAX],
+        .w_min = V_MIN / v[P_RW],
+        .n = n,
+        .iterations = (uint8_t)v[P_ITER],
+        .form = v[P_FORM] >= 0.5f,
+    };
     reset(st);
     return 0;
 }

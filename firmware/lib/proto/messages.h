@@ -48,6 +48,7 @@
 #define STATUS_SINGULAR 0x04u
 #define STATUS_CLAMPED 0x08u
 #define STATUS_ILL_CONDITIONED 0x10u
+#define STATUS_DIVERGED 0x20u
 
 /* INFO reset causes */
 #define RESET_CAUSE_UNKNOWN 0x00u
