@@ -658,10 +658,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     p.add_argument("--ping", type=int, default=None, help="with --functions: PINGs of SIZE bytes")
     p.add_argument(
-        "--link-window",
-        choices=("frame", "exchange"),
-        default="frame",
-        help="with --ping: each frame's handling, or the whole firmware per exchange",
+        "--per",
+        choices=("step", "frame", "exchange", "run"),
+        default=None,
+        help="with --functions, the window: each step (a scenario's default), each frame the "
+        "core handles (--ping's default), the whole firmware per PING exchange, the whole run",
     )
     p.set_defaults(func=cmd_profile)
 

@@ -2,9 +2,9 @@
 
 Windows: "step" (every estimator step: the message core's call of the step, with
 everything it calls and every interrupt that lands in it), "frame" (the message core's
-handling of each frame: decode, dispatch, reply encoded and queued) and "exchange" (the
+handling of each frame: decode, dispatch, reply encoded and queued), "exchange" (the
 whole firmware between two cuts, for N PING exchanges: RX and TX interrupts, bytes
-into the frame buffer, the frame path)."""
+into the frame buffer, the frame path) and "run" (the whole firmware, the whole run)."""
 
 from __future__ import annotations
 
@@ -65,6 +65,8 @@ class Session:
         fmap = self.folder / "functions.map"
         fmap.write_text(self.elf.map_text())
         args = ["--profile", str(self.output), "--profile-map", str(fmap)]
+        if self.what not in ("step", "frame", "exchange", "run"):
+            raise VehilError(f"no profile window {self.what!r}: step, frame, exchange or run")
         if self.what == "step":
             sites = self.elf.step_call_sites()
             ranges = [(a, a + 2 * _instruction_words(self.elf.word(a))) for a in sites]
@@ -105,12 +107,15 @@ def scenario_steps(
     folder: Path | None = None,
     console: Console | None = None,
     timeout_s: float = 2.0,
+    per: str = "step",
 ) -> ProfiledRun:
-    """Runs a scenario with every step profiled; window 1 is stop-and-wait (no receive
-    interrupt lands in a step), None keeps the board's RX window full (lockstep)."""
+    """Runs a scenario with every step profiled (`per` "frame": every frame the core
+    handles; "run": the whole run, boot included, one window); window 1 is
+    stop-and-wait (no receive interrupt lands in a step), None keeps the board's RX
+    window full (lockstep)."""
     from vehil import runner
 
-    s = session(board, "step", folder)
+    s = session(board, per, folder)
     target = s.board(board, timeout_s=timeout_s)
     rec = s.folder / "run.arrow"
     run = runner.run(
@@ -123,7 +128,10 @@ def scenario_steps(
     )
     if run.error:
         raise VehilError(f"the profiled run of {sc.name} failed: {run.error}")
-    return ProfiledRun(run, s.read())
+    profile = s.read()
+    if per == "run":
+        profile.idle = IDLE_FUNCTION
+    return ProfiledRun(run, profile)
 
 
 def _cut(board: Board) -> None:

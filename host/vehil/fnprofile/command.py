@@ -55,33 +55,41 @@ def profile_functions(args: argparse.Namespace, console: Console) -> int:
 
     board = args.board
     if args.ping is not None:
-        folder = Path(args.out or f"runs/profile-functions-ping{args.ping}-{board}")
+        per = args.per or "frame"
+        if per not in ("frame", "exchange"):
+            raise VehilError(f"--ping profiles per frame or per exchange, not per {per}")
+        folder = Path(args.out or f"runs/profile-functions-ping{args.ping}-{per}-{board}")
         profile = collect.pings(
             board,
             size=args.ping,
             count=args.count,
-            what=args.link_window,
+            what=per,
             folder=folder / "bridge",
             timeout_s=args.timeout,
         )
         title = f"{args.ping}-byte PING on {board}: " + (
             "the frame path (end_of_frame)"
-            if args.link_window == "frame"
+            if per == "frame"
             else f"the whole firmware per exchange, {args.count} exchanges"
         )
         show(console, profile, title, folder)
         return 0
     if not args.scenario:
         raise VehilError("--functions needs a SCENARIO (or --ping SIZE for the link's frame path)")
+    per = args.per or "step"
+    if per == "exchange":
+        raise VehilError("--per exchange is for --ping; a scenario's window: step, frame or run")
     sc = scenario.load(args.scenario)
     if args.samples:
         sc = dataclasses.replace(sc, duration=min(sc.duration, args.samples * sc.sample_time))
     folder = Path(args.out or f"runs/profile-functions-{sc.name}-{board}-{sc.mode.lower()}")
+    if per != "step":
+        folder = folder.with_name(f"{folder.name}-per-{per}")
     result = collect.scenario_steps(
-        sc, board, window=args.window, folder=folder / "bridge", timeout_s=args.timeout
+        sc, board, window=args.window, folder=folder / "bridge", timeout_s=args.timeout, per=per
     )
-    title = f"{sc.name}: {sc.estimator.name} ({sc.mode}) step on {board}" + (
+    title = f"{sc.name}: {sc.estimator.name} ({sc.mode}) {per} on {board}" + (
         ", stop-and-wait" if args.window == 1 else ", lockstep"
     )
-    show(console, result.profile, title, folder, result.run.cycles)
+    show(console, result.profile, title, folder, result.run.cycles if per == "step" else None)
     return 0

@@ -59,9 +59,10 @@ def summary_lines(profile: Profile, result_cycles: np.ndarray | None = None) -> 
     per = profile.per
     w = profile.window_cycles / per
     irq = profile.interrupt_cycles / per
-    unit = {"step": "step", "frame": "frame", "exchange": "exchange"}.get(profile.what, "window")
+    unit = {"step": "step", "frame": "frame", "exchange": "exchange"}.get(profile.what, "run")
+    n = profile.windows * per
     lines = [
-        f"{profile.windows * per:,} {unit}s: {w.min():,.0f} / {np.median(w):,.0f} / "
+        f"{n:,} {unit}{'s' if n != 1 else ''}: {w.min():,.0f} / {np.median(w):,.0f} / "
         f"{w.max():,.0f} cycles (min / median / max) counted per {unit}, of which interrupts "
         f"that landed in it {irq.min():,.0f} / {np.median(irq):,.0f} / {irq.max():,.0f}"
     ]
