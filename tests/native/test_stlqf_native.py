@@ -17,8 +17,8 @@ from vehil.estimators import stlqf
         ("rls-flat-steps", "grade", 0.5),
         ("rls-flat-steps-fixed", "grade", 6.0),
         ("rls-heavy-fixed", "m", 0.05),  # unlike the shipped drives: 1650 kg from 1000 kg
-        ("rls-heavy-rolling-fixed", "m", 1.5),
-        ("rls-truck-fixed", "cda", 3.5),
+        ("rls-heavy-rolling-fixed", "m", 0.5),
+        ("rls-truck-fixed", "cda", 2.0),
     ],
 )
 def test_c_follows_the_reference(run_scenario, name, output, limit) -> None:  # noqa: ANN001

@@ -18,10 +18,7 @@ static const uint8_t theta_q[3] = {16, 20, 16};
 #define ERR_Q 12 /* the innovation: ±512 kN, as m v̇ can be in a transient */
 
 /* P̃_ij's place in the packed lower triangle. */
-static uint8_t at(uint8_t i, uint8_t j)
-{
-    return i >= j ? (uint8_t)(i * (i + 1u) / 2u + j) : (uint8_t)(j * (j + 1u) / 2u + i);
-}
+static const uint8_t at[3][3] = {{0, 1, 3}, {1, 2, 4}, {3, 4, 5}};
 
 static uint8_t bit_length(uint32_t x)
 {
@@ -39,7 +36,8 @@ static uint8_t bit_length(uint32_t x)
 
 static uint32_t magnitude(int32_t x) { return x < 0 ? (uint32_t)0 - (uint32_t)x : (uint32_t)x; }
 
-/* v 2^n: rounded half up when n < 0, saturated (flagged) when it does not fit. */
+/* v 2^n: rounded half up when n < 0, saturated (flagged) when it does not fit; whole
+ * bytes first, as the AVR shifts an int32 one bit at a time. */
 static int32_t shift(int32_t v, int16_t n, uint8_t *st)
 {
     if (n >= 0) {
@@ -47,13 +45,52 @@ static int32_t shift(int32_t v, int16_t n, uint8_t *st)
             *st |= STATUS_SATURATED;
             return v > 0 ? INT32_MAX : INT32_MIN;
         }
-        return (int32_t)((uint32_t)v << n);
+        uint32_t u = (uint32_t)v;
+        for (; n >= 8; n -= 8) {
+            u <<= 8;
+        }
+        return (int32_t)(u << n);
     }
     if (n < -31) {
         return 0;
     }
-    uint8_t d = (uint8_t)-n;
-    return (v >> d) + ((v >> (d - 1u)) & 1);
+    uint8_t d = (uint8_t)(-n - 1); /* to the rounding bit, then one more */
+    for (; d >= 8u; d -= 8u) {
+        v >>= 8;
+    }
+    v >>= d;
+    return (v >> 1) + (v & 1);
+}
+
+/* a b 2^-n for a shift n known only at run time, rounded half up, saturated: on the AVR
+ * through fixmath's assembly entry for that shift (the same bits as its C twin). */
+static int32_t mul_shr(int32_t a, int32_t b, int16_t n, uint8_t *st)
+{
+    if (n < 1) {
+        return shift(fx_mul_shr(a, b, 1, st), (int16_t)(1 - n), st);
+    }
+    if (n > 62) {
+        return 0; /* |a b| < 2^62 */
+    }
+#if defined(__AVR__)
+#define RLS_CASE(k)                                                                            \
+    case k:                                                                                    \
+        return fx_mul_h##k(a, b, st);
+    switch (n) { FX_SHIFTS(RLS_CASE) }
+#undef RLS_CASE
+#endif
+    return fx_mul_shr_c(a, b, (uint8_t)n, st);
+}
+
+/* 1 / s for s in [1/2, 1) (Q30), in Q29: a linear first guess, 48/17 - 32/17 s (within
+ * 1/17), and three Newton steps y (2 - s y), each squaring the error. */
+static int32_t reciprocal(int32_t s, uint8_t *st)
+{
+    int32_t y = 1515870810 - fx_mul_shr(s, 2021161080, 31, st);
+    for (uint8_t i = 0; i < 3u; i++) {
+        y = fx_mul_shr(y, ONE_Q30 - fx_mul_shr(s, y, 30, st), 29, st);
+    }
+    return y;
 }
 
 /* A positive value v 2^-q as P̃ (Q30, in [1/4, 1)) and an exponent e, v = P̃ 2^(2e); 0 stays
@@ -84,7 +121,7 @@ static void reset_covariance(rls_state_t *s)
     } else {
         memset(s->u.q.P, 0, sizeof s->u.q.P);
         for (uint8_t i = 0; i < 3u; i++) {
-            s->u.q.P[at(i, i)] = s->u.q.p0[i];
+            s->u.q.P[at[i][i]] = s->u.q.p0[i];
             s->u.q.e[i] = s->u.q.e_p0[i];
         }
     }
@@ -196,14 +233,14 @@ static uint8_t step_f32(rls_state_t *s, const uint8_t *in, uint8_t *out)
 static uint8_t renormalise(int32_t *P, int8_t *e, uint8_t *st)
 {
     for (uint8_t i = 0; i < 3u; i++) {
-        int32_t *d = &P[at(i, i)];
+        int32_t *d = &P[at[i][i]];
         if (*d <= 0) {
             return 0;
         }
         while (*d < (ONE_Q30 >> 2) || *d >= ONE_Q30) {
             int8_t k = *d < (ONE_Q30 >> 2) ? 1 : -1; /* P̃_ii 4^k, e_i - k */
             for (uint8_t j = 0; j < 3u; j++) {
-                int32_t *p = &P[at(i, j)];
+                int32_t *p = &P[at[i][j]];
                 *p = shift(*p, (int16_t)(j == i ? 2 * k : k), st);
             }
             e[i] = (int8_t)(e[i] - k);
@@ -212,15 +249,16 @@ static uint8_t renormalise(int32_t *P, int8_t *e, uint8_t *st)
     return 1;
 }
 
-/* Whether P_ii / λ would pass the cap, as P_ii > λ cap (both as P̃ 2^(2e)). */
+/* Whether P_ii / λ would pass the cap, as P_ii > λ cap, both as a mantissa in [1/8, 1)
+ * (P̃_ii renormalised) and 2^(2e). */
 static uint8_t past_cap(const rls_state_t *s, uint8_t i)
 {
-    int32_t p = s->u.q.P[at(i, i)], cap = s->u.q.cap[i];
-    int16_t k = (int16_t)(2 * (s->u.q.e[i] - s->u.q.e_cap[i]));
-    if (k >= 0) {
-        return p > (k > 30 ? 0 : cap >> k);
+    int32_t p = s->u.q.P[at[i][i]], cap = s->u.q.cap[i];
+    int8_t k = (int8_t)(s->u.q.e[i] - s->u.q.e_cap[i]);
+    if (k != 0) {
+        return k > 0 ? (k > 1 || p > (cap >> 2)) : (k == -1 && (p >> 2) > cap);
     }
-    return k < -30 ? 0u : (p >> -k) > cap;
+    return p > cap;
 }
 
 /* Note §3's update with P as P̃ 2^(e_i + e_j) (rls.h): u = 2^e ψ as ũ 2^top (Q30, its
@@ -251,7 +289,7 @@ static void update_q(rls_state_t *s, const int32_t *x, uint8_t *status)
     for (uint8_t i = 0; i < 3u; i++) {
         w[i] = 0; /* Q29: |P̃_ij| < 1, |ũ_j| < 1 */
         for (uint8_t j = 0; j < 3u; j++) {
-            w[i] = fx_add(w[i], fx_mul_shr(P[at(i, j)], u[j], 31, &st), &st);
+            w[i] += fx_mul_shr(P[at[i][j]], u[j], 31, &st);
         }
         peak |= magnitude(w[i]);
     }
@@ -262,39 +300,46 @@ static void update_q(rls_state_t *s, const int32_t *x, uint8_t *status)
     int32_t q = 0; /* ũᵀŵ, Q27: <= 3 */
     for (uint8_t i = 0; i < 3u; i++) {
         w[i] = shift(w[i], (int16_t)(30 - n_w), &st);
-        q = fx_add(q, fx_mul_shr(u[i], w[i], 33, &st), &st);
+        q += fx_mul_shr(u[i], w[i], 33, &st);
     }
     q = q > 0 ? q : 0;
-    /* s = λ 2^(-2 top) + q 2^gw as s_m 2^g, s_m in [1/4, 1) (Q30): each term is below
-     * 2^(g-1). */
+    /* s = λ 2^(-2 top) + q 2^gw as s_m 2^g, s_m in [1/4, 1) (Q30) as each term is below
+     * 2^(g-1), then in [1/2, 1). */
     int16_t g = (int16_t)(-2 * top);
     int16_t gq = (int16_t)(bit_length((uint32_t)q) - 27 + gw);
     g = (int16_t)((q != 0 && gq > g ? gq : g) + 1);
     int32_t s_m = shift(s->u.q.lambda, (int16_t)(-2 * top - g), &st) +
                   shift(q, (int16_t)(3 - g + gw), &st);
-    int32_t r = fx_div(ONE_Q30 >> 2, 28, s_m, 30, 28, &st); /* 1 / s_m in (1, 4] */
+    if (s_m < (ONE_Q30 >> 1)) { /* into [1/2, 1) */
+        s_m *= 2;
+        g--;
+    }
+    int32_t r = reciprocal(s_m, &st); /* Q29, in (1, 2] */
     for (uint8_t i = 0; i < 3u; i++) {
-        t[i] = fx_mul_shr(w[i], r, 31, &st); /* ŵ / s_m, Q27: < 4 */
+        t[i] = fx_mul_shr(w[i], r, 32, &st); /* ŵ / s_m, Q27: < 2 */
     }
     /* θ += k err, k = 2^(e - top - g + gw) t, err as err_m 2^(n_err - ERR_Q), err_m in
-     * [1/2, 1) (Q30). */
+     * [1/2, 1) (Q30): one multiply, its shift from the exponents. */
     if (err != 0) {
         uint8_t n_err = bit_length(magnitude(err));
         int32_t err_m = shift(err, (int16_t)(30 - n_err), &st);
         for (uint8_t i = 0; i < 3u; i++) {
-            int32_t p = fx_mul_shr(t[i], err_m, 31, &st); /* Q26 */
-            int16_t n = (int16_t)(theta_q[i] - 26 + e[i] - top - g + gw + n_err - ERR_Q);
-            theta[i] = fx_add(theta[i], shift(p, n, &st), &st);
+            int16_t n = (int16_t)(57 - theta_q[i] - e[i] + top + g - gw - n_err + ERR_Q);
+            theta[i] = fx_add(theta[i], mul_shr(t[i], err_m, n, &st), &st);
         }
     }
     /* P̃ - w̃ w̃ᵀ / s = P̃ - t ŵᵀ 2^(2 gw - g), whose entries are at most sqrt(P̃_ii P̃_jj) < 1. */
+    int16_t n_p = (int16_t)(27 - 2 * gw + g);
     for (uint8_t i = 0; i < 3u; i++) {
         for (uint8_t j = 0; j <= i; j++) {
-            int32_t c = fx_mul_shr(t[i], w[j], 31, &st); /* Q26: < 4 */
-            P[at(i, j)] = fx_sub(P[at(i, j)], shift(c, (int16_t)(4 + 2 * gw - g), &st), &st);
+            P[at[i][j]] = fx_sub(P[at[i][j]], mul_shr(t[i], w[j], n_p, &st), &st);
         }
     }
-    uint8_t forget = 1;
+    uint8_t forget = renormalise(P, e, &st);
+    if (!forget) {
+        reset_covariance(s);
+        st |= STATUS_SINGULAR;
+    }
     for (uint8_t i = 0; i < 3u; i++) {
         forget = past_cap(s, i) ? 0u : forget; /* windup guard */
     }
@@ -302,10 +347,7 @@ static void update_q(rls_state_t *s, const int32_t *x, uint8_t *status)
         for (uint8_t i = 0; i < 6u; i++) {
             P[i] = fx_mul_shr(P[i], s->u.q.inv_lambda, 29, &st);
         }
-    }
-    if (!renormalise(P, e, &st)) {
-        reset_covariance(s);
-        st |= STATUS_SINGULAR;
+        renormalise(P, e, &st); /* P̃_ii < 2: at most one step */
     }
     *status |= st;
 }
