@@ -48,7 +48,7 @@ def test_the_kfui_closes_the_loop_too(run_scenario) -> None:  # noqa: ANN001
         (eso.SPEC, "F32", {"eps": 0.001}, "eps"),
         (eso.SPEC, "FIXED", {"k_us": 1.0}, "k_us"),
         (eso.SPEC, "F32", {"horizon": 2.0}, "horizon"),
-        (kfui.SPEC, "F32", {"integrator": 1.0}, "integrator"),  # RK4: reference only
+        (kfui.SPEC, "F32", {"r_x": 0.0}, "r_x"),
     ],
 )
 def test_an_out_of_range_parameter_is_refused_with_its_index(built, spec, mode, bad, name) -> None:  # noqa: ANN001

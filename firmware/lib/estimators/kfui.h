@@ -7,7 +7,7 @@
  * (docs/estimators/kfui.md).
  *
  * Inputs  a_s, a_us [m/s²].   Outputs see susp_ecu.h.
- * Params  T, integrator (0 only: Euler), q, r_x, r_a, p0, s0, then the ECU tail. */
+ * Params  T, q, r_x, r_a, p0, s0, then the ECU tail. */
 #ifndef VEHIL_ESTIMATORS_KFUI_H
 #define VEHIL_ESTIMATORS_KFUI_H
 

@@ -3,9 +3,9 @@
 States [x_s, ẋ_s, x_us, ẋ_us], the unknown input x_r estimated each step by generalised
 least squares; four outputs y = [x_s, ẍ_s, x_us, ẍ_us]: the conditioned displacements and
 the raw (biased, noisy) accelerations. Recursion (26)-(33) as the note cleaned it up:
-prediction with the printed forward Euler, F = I + T J (`integrator` 0), or RK4 with
-F = expm(J T) (`integrator` 1, reference only: Euler at 100 Hz is unstable for the
-wheel-hop mode open loop, |1 + λT| = 1.079); the covariance update as printed (33).
+prediction with the printed forward Euler, F = I + T J, or RK4 with F = expm(J T)
+(`KfUi(p, rk4=True)`, host only: Euler at 100 Hz is unstable for the wheel-hop mode open
+loop, |1 + λT| = 1.079, and the board runs Euler); the covariance update as printed (33).
 Q = 10⁻² I, R = diag(r_x, r_a, r_x, r_a), P0 = p0 I, S0 = s0 (assumed, note §1.5).
 
 The `kfui` spec is the board's task with the KF-UI in place of the ESO (float32 only):
@@ -28,10 +28,10 @@ from vehil.estimators.eso import INPUTS, OUTPUTS, T_PARAM, Ecu, Measured
 
 
 class KfUi:
-    def __init__(self, p: Mapping[str, float]):
+    def __init__(self, p: Mapping[str, float], rk4: bool = False):
         self.m = nominal(p)
         self.T = p["T"]
-        self.rk4 = p.get("integrator", 0.0) >= 0.5
+        self.rk4 = rk4
         self.Q = p["q"] * np.eye(4)
         self.R = np.diag([p["r_x"], p["r_a"], p["r_x"], p["r_a"]])
         self.Rinv = np.linalg.inv(self.R)
@@ -90,9 +90,9 @@ class KfUi:
         return self.x.copy(), m.f1(self.x), m.f2(self.x) + m.d1 * self.d, self.d
 
 
-def ecu(p: Mapping[str, float]) -> Ecu:
-    """The board's task with the KF-UI as its observer."""
-    return Ecu(p, KfUi(p))
+def ecu(p: Mapping[str, float], rk4: bool = False) -> Ecu:
+    """The board's task with the KF-UI as its observer (RK4: host only)."""
+    return Ecu(p, KfUi(p, rk4))
 
 
 SPEC = register(
@@ -106,7 +106,6 @@ SPEC = register(
         reference=ecu,
         params=(
             T_PARAM,
-            Param("integrator", "1", q=0, default=0, lo=0, hi=1, doc="0 Euler (printed), 1 RK4"),
             Param("q", "1", default=1e-2, lo=1e-9, hi=1e3, doc="process noise Q = q I"),
             Param("r_x", "m^2", default=0.1, lo=1e-9, hi=1e3, doc="R: displacement channels"),
             Param("r_a", "m^2/s^4", default=1.0, lo=1e-9, hi=1e3, doc="R: acceleration channels"),
