@@ -55,6 +55,7 @@ class Profile:
     elf: ElfMap | None = field(default=None, repr=False)
     per: int = 1  # exchanges (or steps) in one window
     idle: str | None = None  # the function whose own cycles are waiting, not work
+    _stats: list[FunctionStats] | None = field(default=None, repr=False)
 
     # --- reading the bridge's file
 
@@ -152,6 +153,11 @@ class Profile:
     def function_stats(self) -> list[FunctionStats]:
         """Per function: self and inclusive cycles and calls in each window; hottest first.
         Inclusive counts a node once however often the function is on its path."""
+        if self._stats is None:
+            self._stats = self._function_stats()
+        return self._stats
+
+    def _function_stats(self) -> list[FunctionStats]:
         by_func: dict[int, list[int]] = defaultdict(list)
         paths: list[set[int]] = []
         for i in range(len(self.func)):
