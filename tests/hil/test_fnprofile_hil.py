@@ -90,3 +90,16 @@ def test_the_link_frame_path_per_ping(tmp_path) -> None:  # noqa: ANN001
     assert rx is not None and int(rx.calls[0]) == 30 * 22  # 16 + type, seq, CRC, COBS, 0x00
     # everything the frame path does happens in the exchange too
     assert whole.window_cycles[0] / 30 > np.median(frames.window_cycles)
+
+
+def test_vehil_run_profile_puts_the_flame_graph_in_the_report(tmp_path) -> None:  # noqa: ANN001
+    from vehil import cli
+
+    short = tmp_path / "sine-short.toml"  # sine, one second of it
+    short.write_text(scenario.find("sine").read_text().replace("duration = 20.0", "duration = 1.0"))
+    assert cli.main(["run", str(short), "--profile", "--out", str(tmp_path)]) == 0
+    folder = tmp_path / "profile"
+    for name in ("flame.png", "profile.md", "stacks.collapsed", "profile.speedscope.json"):
+        assert (folder / name).stat().st_size > 0
+    assert "![flame graph](profile/flame.png)" in (tmp_path / "report.md").read_text()
+    assert "passthrough_step" in (folder / "profile.md").read_text()
