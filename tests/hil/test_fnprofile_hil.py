@@ -26,8 +26,10 @@ def test_every_cycle_of_a_step_is_counted_once_and_matches_result(tmp_path) -> N
     assert p.windows == len(res.run.cycles) == 150
     # RESULT counts from the probe's read of Timer1 to the next one, less the probe's
     # own cost; the window is the step's call: they differ by the same few cycles.
+    # A Timer1 overflow that lands between the two (rarely) adds its cycles to RESULT.
     d = res.run.cycles - p.window_cycles
-    assert len(set(d.tolist())) == 1 and 0 < d[0] < 64
+    base = int(np.median(d))
+    assert 0 < base < 64 and (d >= base).all() and (d == base).mean() > 0.95
     stats = p.function_stats()
     assert np.array_equal(sum(s.self for s in stats), p.window_cycles)  # interrupts' code too
     assert sum(p.collapsed().values()) == p.window_cycles.sum()
