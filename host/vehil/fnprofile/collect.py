@@ -21,26 +21,26 @@ from rich.console import Console
 from vehil.boards import VIRTUAL_BOARDS, Board, make_board
 from vehil.boards.simavr import SimavrBoard, SimavrBootloaderBoard
 from vehil.errors import VehilError
-from vehil.fnprofile.elfmap import ElfMap, _instruction_words
+from vehil.fnprofile.elfmap import ElfMap, instruction_words
 from vehil.fnprofile.model import Profile
 
 FRAME_FUNCTION = "end_of_frame"  # firmware/lib/board/dispatch.c
 IDLE_FUNCTION = "uart_wait_byte"  # firmware/src/uart.c: the main loop's wait for a byte
 
 
+def _profilable(cls: type[Board]) -> bool:
+    """A board whose firmware runs on the simavr bridge from an ELF (not the bootloader)."""
+    return issubclass(cls, SimavrBoard) and not issubclass(cls, SimavrBootloaderBoard)
+
+
 def _board_class(name: str) -> type[SimavrBoard]:
     cls = VIRTUAL_BOARDS.get(name)
-    if cls is None or not issubclass(cls, SimavrBoard) or issubclass(cls, SimavrBootloaderBoard):
-        profilable = [
-            n
-            for n, c in VIRTUAL_BOARDS.items()
-            if issubclass(c, SimavrBoard) and not issubclass(c, SimavrBootloaderBoard)
-        ]
+    if cls is None or not _profilable(cls):
         raise VehilError(
             f"profiling by function counts cycles in the simavr bridge: board {name!r} cannot; "
-            f"use one of {', '.join(profilable)}"
+            f"use one of {', '.join(n for n, c in VIRTUAL_BOARDS.items() if _profilable(c))}"
         )
-    return cls
+    return cls  # type: ignore[return-value]
 
 
 def elf_of(board: str) -> Path:
@@ -69,7 +69,7 @@ class Session:
             raise VehilError(f"no profile window {self.what!r}: step, frame, exchange or run")
         if self.what == "step":
             sites = self.elf.step_call_sites()
-            ranges = [(a, a + 2 * _instruction_words(self.elf.word(a))) for a in sites]
+            ranges = [(a, a + 2 * instruction_words(self.elf.word(a))) for a in sites]
         elif self.what == "frame":
             ranges = self.elf.function_ranges(FRAME_FUNCTION)
         else:

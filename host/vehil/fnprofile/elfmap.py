@@ -132,7 +132,7 @@ def _objects_symbols(build_dir: Path) -> set[str]:
     return names
 
 
-def _instruction_words(op: int) -> int:
+def instruction_words(op: int) -> int:
     """1 or 2: CALL, JMP, LDS and STS carry a second word."""
     return 2 if (op & 0xFE0C) == 0x940C or (op & 0xFC0F) == 0x9000 else 1
 
@@ -289,7 +289,7 @@ class ElfMap:
                 op = self.word(a)
                 if is_call(op):
                     found.append(a)
-                a += 2 * _instruction_words(op)
+                a += 2 * instruction_words(op)
         return sorted(set(found))
 
     def source_line_of(self, relpath: str, pattern: str) -> int:
