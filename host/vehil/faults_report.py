@@ -97,7 +97,7 @@ def measure(
 
 # Stop-and-wait PINGs with no retry: how long a lost request or reply is waited for.
 # Shorter than a board's worst round trip only turns late replies into detected losses.
-CAMPAIGN_TIMEOUT_S = {"native": 0.005, "simavr": 0.03, "qemu": 0.1}
+CAMPAIGN_TIMEOUT_S = {"native": 0.005, "simavr": 0.03, "qemu": 0.3}
 
 
 @dataclass
@@ -110,7 +110,8 @@ class CampaignRow:
     frames: int = 0  # PING requests sent, each answered by one reply frame
     injected: int = 0  # faults put on the wire, both directions
     hit: int = 0  # exchanges with at least one fault in their bytes
-    detected: int = 0  # exchanges refused: timeout, bad frame, wrong seq or type, ERROR
+    detected: int = 0  # exchanges hit and refused: timeout, bad frame, wrong seq or type, ERROR
+    lost_unhit: int = 0  # refused with no fault in its bytes: a late reply, or the one before's
     harmless: int = 0  # hit, yet the echo came back right (a doubled delimiter, say)
     wrong: int = 0  # accepted with an echo that differs from what was sent
     seconds: float = 0.0
@@ -132,7 +133,10 @@ class CampaignRow:
         self.hit += injected > 0
         self.wrong += wrong
         if not right and not wrong:
-            self.detected += 1
+            if injected:
+                self.detected += 1
+            else:
+                self.lost_unhit += 1
         elif right and injected:
             self.harmless += 1
 
@@ -187,7 +191,7 @@ def campaign_table(rows: list[CampaignRow], faults: int, max_s: float) -> Table:
         f"each row until {faults:,g} faults or {max_s:g} s"
     )
     for col in ("board", "class", "rate", "frames", "injected", "exchanges hit", "detected",
-                "harmless", "wrongly accepted", "s", "ended by"):  # fmt: skip
+                "harmless", "wrongly accepted", "lost, not hit", "s", "ended by"):  # fmt: skip
         t.add_column(col, justify="left" if col in ("board", "class", "ended by") else "right")
     for r in rows:
         t.add_row(
@@ -200,6 +204,7 @@ def campaign_table(rows: list[CampaignRow], faults: int, max_s: float) -> Table:
             f"{r.detected:,}",
             f"{r.harmless:,}",
             f"[bold red]{r.wrong:,}[/]" if r.wrong else "0",
+            f"{r.lost_unhit:,}",
             f"{r.seconds:.0f}",
             r.ended_by,
         )
