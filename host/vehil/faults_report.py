@@ -32,7 +32,7 @@ from rich.console import Console
 from rich.table import Table
 
 from vehil.boards import open_board
-from vehil.errors import BoardError, LinkError
+from vehil.errors import BoardError, LinkError, VehilError
 from vehil.protocol import frame as framing
 from vehil.protocol.schema import SCHEMA
 from vehil.terminal import make_console
@@ -216,7 +216,10 @@ def run_campaign(args: argparse.Namespace, console: Console) -> int:
     for board in args.board.split(","):
         for kind in args.classes.split(","):
             for rate in (float(r) for r in args.rates.split(",")):
-                r = campaign_row(board, kind, rate, int(args.faults_per_class), args.seconds)
+                try:
+                    r = campaign_row(board, kind, rate, int(args.faults_per_class), args.seconds)
+                except VehilError as exc:  # a board that did not start: the other rows go on
+                    r = CampaignRow(board, kind, rate, ended_by=f"error: {exc}")
                 rows.append(r)
                 console.print(
                     f"{board} {kind} {rate:g}: {r.injected:,} faults in {r.frames:,} frames, "
@@ -227,6 +230,8 @@ def run_campaign(args: argparse.Namespace, console: Console) -> int:
         sys.stdout.write(json.dumps([asdict(r) for r in rows], indent=2) + "\n")
     else:
         console.print(campaign_table(rows, args.faults_per_class, args.seconds))
+    if any(r.ended_by.startswith("error") for r in rows):
+        return 2
     return 1 if any(r.wrong for r in rows) else 0
 
 

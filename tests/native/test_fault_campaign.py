@@ -26,3 +26,10 @@ def test_the_campaign_prints_a_row_per_board_class_and_rate_as_json(built, capsy
     expected = [(b, "flip", rate) for b in (CODEC, "native") for rate in (0.01, 0.02)]
     assert [(r["board"], r["kind"], r["rate"]) for r in rows] == expected
     assert all(r["injected"] >= 50 and r["wrong"] == 0 for r in rows)
+
+
+def test_a_board_that_does_not_start_is_a_row_that_says_so(capsys) -> None:  # noqa: ANN001
+    argv = ["--campaign", "--board", "nonsense", "--classes", "drop", "--rates", "0.01", "--json"]
+    assert faults_report.main(argv) == 2
+    (row,) = json.loads(capsys.readouterr().out)
+    assert row["ended_by"].startswith("error: no board 'nonsense'") and row["frames"] == 0
