@@ -269,7 +269,7 @@ SPEC = register(
             Param("r_meas", "(rad/s)^2", q=0, default=0.01, lo=1e-6, hi=100.0, doc="R (Table 3)"),
             *CAR,
             Param("v_max", "m/s", q=0, default=100.0, lo=1.0, hi=200.0, doc="highest speed"),
-            Param("nis_max", "1", q=0, default=20.0, lo=1.0, hi=1e6, doc="NIS mean that flags"),
+            Param("nis_max", "1", q=0, default=5.0, lo=1.0, hi=1e6, doc="NIS mean that flags"),
         ),
         modes=("F32",),
         paper="000-manf-uiiekf-braking",
