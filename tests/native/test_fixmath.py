@@ -7,13 +7,26 @@ import numpy as np
 
 
 def test_fx_tanh_stays_within_its_stated_bound(native_lib) -> None:  # noqa: ANN001
-    f = native_lib.fx_tanh
-    f.argtypes = [ctypes.c_int32, ctypes.c_uint8, ctypes.c_uint8]
-    f.restype = ctypes.c_int32
-    xs = np.linspace(-8, 8, 20001)
-    worst = max(abs(f(int(round(x * 2**24)), 24, 30) / 2**30 - math.tanh(x)) for x in xs)
-    assert worst <= 7e-4
-    assert f(0, 24, 30) == 0 and f(-(2**24), 24, 30) == -f(2**24, 24, 30)
+    """The Q15 table's interpolation, from |x| in Q19: 3.92e-4 at most inside [0, 4)."""
+    f = native_lib.fx_tanh_q15_pos
+    f.argtypes = [ctypes.c_uint32]
+    f.restype = ctypes.c_uint16
+    pos = np.arange(0, 64 << 15, 5)
+    worst = max(abs(f(int(p)) / 2**15 - math.tanh(p / 2**19)) for p in pos)
+    assert worst <= 4e-4
+    assert f(0) == 0 and f((64 << 15) - 1) <= 32746
+
+
+def test_tanh_f32_stays_within_its_stated_bound(native_lib) -> None:  # noqa: ANN001
+    f = native_lib.tanh_f32
+    f.argtypes = [ctypes.c_float]
+    f.restype = ctypes.c_float
+    xs = np.concatenate([np.linspace(-12, 12, 40_001), np.geomspace(1e-12, 12, 5_000)])
+    xs = xs.astype(np.float32)
+    worst = max(abs(f(float(x)) - math.tanh(float(x))) for x in xs)
+    assert worst < 3e-5
+    assert f(float("inf")) == 1.0 and f(float("-inf")) == -1.0 and math.isnan(f(float("nan")))
+    assert f(1e-30) == np.float32(1e-30) and math.copysign(1, f(-0.0)) == -1
 
 
 def test_fx_mul_rounds_to_nearest_and_saturates(native_lib) -> None:  # noqa: ANN001
@@ -99,3 +112,20 @@ def test_the_multiply_kernels_round_and_saturate_as_stated_for_every_shift(nativ
                 clipped = max(-(2**31), min(2**31 - 1, want))
                 assert got == clipped, (f, a, b, s)
                 assert bool(status.value & 0x01) == (clipped != want), (f, a, b, s)
+
+
+def test_fx_mul16_gives_the_bits_of_fx_mul_rs(native_lib) -> None:  # noqa: ANN001
+    """The int32 × int16 kernel against the int32 × int32 one, edges and random operands."""
+    rs = _kernel(native_lib, "fx_mul_rs_c")
+    m16 = native_lib.fx_mul16_c
+    m16.argtypes = [ctypes.c_int32, ctypes.c_int16, ctypes.c_uint8, ctypes.POINTER(ctypes.c_uint8)]
+    m16.restype = ctypes.c_int32
+    rng = np.random.default_rng(16)
+    ops = _operands(rng, 120)
+    bs = [0, 1, -1, 2**15 - 1, -(2**15)] + [int(b) for b in rng.integers(-(2**15), 2**15, 200)]
+    for s in range(1, 31):
+        for a in ops:
+            for b in bs[:: 1 + (len(bs) * len(ops)) // 1000]:
+                want, got = ctypes.c_uint8(0), ctypes.c_uint8(0)
+                assert m16(a, b, s, ctypes.byref(got)) == rs(a, b, s, ctypes.byref(want)), (a, b, s)
+                assert got.value == want.value, (a, b, s)

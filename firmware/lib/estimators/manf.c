@@ -1,6 +1,7 @@
 #include "estimators/manf.h"
 
 #include <math.h>
+#include <string.h>
 
 #include "estimators/params.h"
 #include "fixmath/fixmath.h"
@@ -31,6 +32,21 @@ static int8_t adapt_sign(int8_t s_prev, int8_t s, uint8_t *grow)
     return s != 0 ? s : s_prev;
 }
 
+/* A float's bits: the comparisons below are integer ones (a float comparison is a ~60-cycle
+ * library call on the AVR); for finite floats of the same sign they order as the values. */
+static uint32_t bits_of(float x)
+{
+    uint32_t b;
+    memcpy(&b, &x, sizeof b);
+    return b;
+}
+
+static int8_t sign_f32(float x)
+{
+    uint32_t b = bits_of(x);
+    return (b & 0x7fffffffu) == 0u ? 0 : (b & 0x80000000u) ? -1 : 1;
+}
+
 static uint8_t step_f32(manf_state_t *st, const uint8_t *in, uint8_t *out)
 {
     const manf_params_f32_t *p = &st->u.f32.p;
@@ -45,21 +61,21 @@ static uint8_t step_f32(manf_state_t *st, const uint8_t *in, uint8_t *out)
     } else {
         float e = s->v - p->r_w * w;
         uint8_t grow;
-        st->s_prev = adapt_sign(st->s_prev, (int8_t)((e > 0.0f) - (e < 0.0f)), &grow);
+        st->s_prev = adapt_sign(st->s_prev, sign_f32(e), &grow);
         if (grow == 2u) {
             s->rg *= p->gamma;
         } else if (grow == 1u) {
             s->rg *= p->xi;
         }
-        s->rg = s->rg < 0.0f ? 0.0f : (s->rg > p->a ? p->a : s->rg);
-        float step = s->rg * tanhf(e);
+        uint32_t rg = bits_of(s->rg); /* R_g in [0, a] */
+        s->rg = (rg & 0x80000000u) ? 0.0f : (rg > bits_of(p->a) ? p->a : s->rg);
+        float step = s->rg * tanh_f32(e);
         if (!st->reading) {
             step *= p->T; /* reading B: R_g is an acceleration */
         }
         float dv = st->printed_sign ? step : -step;
-        float limit = p->a * p->T; /* eq. 43 */
-        if (dv > limit || dv < -limit) {
-            dv = dv > 0.0f ? limit : -limit;
+        if ((bits_of(dv) & 0x7fffffffu) > bits_of(p->limit)) { /* |dv| > a T, eq. 43 */
+            dv = sign_f32(dv) > 0 ? p->limit : -p->limit;
             status |= STATUS_CLAMPED;
         }
         s->v += dv;
@@ -89,14 +105,13 @@ static uint8_t step_q(manf_state_t *st, const uint8_t *in, uint8_t *out)
             s->rg = fx_mul(s->rg, 24, p->xi, 30, 24, &status);
         }
         s->rg = s->rg < 0 ? 0 : (s->rg > p->a ? p->a : s->rg);
-        int32_t step = fx_mul(s->rg, 24, fx_tanh(e, 24, 30), 30, 24, &status);
+        int32_t step = fx_mul16(s->rg, (int16_t)fx_tanh(e, 24, 15), 15, &status); /* Q24 */
         if (!st->reading) {
             step = fx_mul(step, 24, p->T, 30, 24, &status);
         }
         int32_t dv = st->printed_sign ? step : -step;
-        int32_t limit = fx_mul(p->a, 24, p->T, 30, 24, &status);
-        if (dv > limit || dv < -limit) {
-            dv = dv > 0 ? limit : -limit;
+        if (dv > p->limit || dv < -p->limit) {
+            dv = dv > 0 ? p->limit : -p->limit;
             status |= STATUS_CLAMPED;
         }
         s->v = fx_add(s->v, dv, &status);
@@ -138,6 +153,7 @@ static uint8_t manf_configure(void *state, uint8_t mode, const uint8_t *params)
             .rg0 = get_f32(params + 4u * P_RG0),
             .a = get_f32(params + 4u * P_A),
         };
+        st->u.f32.p.limit = st->u.f32.p.a * st->u.f32.p.T;
     } else {
         st->u.q.p = (manf_params_q_t){
             .T = param_q(params, P_T),
@@ -147,6 +163,8 @@ static uint8_t manf_configure(void *state, uint8_t mode, const uint8_t *params)
             .rg0 = param_q(params, P_RG0),
             .a = param_q(params, P_A),
         };
+        uint8_t sat = 0;
+        st->u.q.p.limit = fx_mul(st->u.q.p.a, 24, st->u.q.p.T, 30, 24, &sat); /* eq. 43 */
     }
     manf_reset(st);
     return 0;

@@ -17,6 +17,7 @@
 
 typedef struct {
     float T, r_w, gamma, xi, rg0, a;
+    float limit; /* a T: the largest step of v̂ (eq. 43) */
 } manf_params_f32_t;
 
 typedef struct {
@@ -30,6 +31,7 @@ typedef struct {
     int32_t xi;     /* Q30 */
     int32_t rg0;    /* Q24 */
     int32_t a;      /* Q24 */
+    int32_t limit;  /* a T, Q24: the largest step of v̂ (eq. 43) */
 } manf_params_q_t;
 
 typedef struct {

@@ -1,5 +1,7 @@
 #include "fixmath/fixmath.h"
 
+#include <string.h>
+
 int32_t fx_sat(int64_t x, uint8_t *status)
 {
     if (x > FX_MAX) {
@@ -37,6 +39,12 @@ int32_t fx_mul_rs_c(int32_t a, int32_t b, uint8_t s, uint8_t *status)
 {
     int64_t p = (int64_t)a * b;
     return fx_sat((p + ((int64_t)1 << (s - 1u)) - (p < 0)) >> s, status);
+}
+
+/* fx_mul16 out of line, for the native tests (tests/native/test_fixmath.py) to call. */
+int32_t fx_mul16_c(int32_t a, int16_t b, uint8_t s, uint8_t *status)
+{
+    return fx_mul16(a, b, s, status);
 }
 
 int32_t fx_mul_shr_c(int32_t a, int32_t b, uint8_t s, uint8_t *status)
@@ -103,23 +111,100 @@ static const uint16_t tanh_table[65] = {
     32670, 32681, 32691, 32700, 32708, 32715, 32721, 32727, 32732, 32736, 32740, 32743, 32746,
 };
 
-int32_t fx_tanh(int32_t x, uint8_t qx, uint8_t q_out)
+uint16_t fx_tanh_q15_pos(uint32_t pos)
 {
-    uint32_t mag = x < 0 ? (uint32_t)0 - (uint32_t)x : (uint32_t)x;
-    uint8_t frac_bits = (uint8_t)(qx - 4u); /* the table's step is 1/16 */
-    uint32_t idx = mag >> frac_bits;
-    int32_t y;
-    if (idx >= 64u) {
-        y = tanh_table[64];
-    } else {
-        uint32_t frac = mag & (((uint32_t)1 << frac_bits) - 1u);
-        /* Interpolate with 15 fractional bits of the position, so the product fits. */
-        frac = frac_bits > 15u ? frac >> (frac_bits - 15u) : frac << (15u - frac_bits);
-        int32_t lo = tanh_table[idx], hi = tanh_table[idx + 1u];
-        y = lo + (int32_t)(((uint32_t)(hi - lo) * frac + (1u << 14)) >> 15);
+    /* pos >> 15 and the low 15 bits, by whole bytes (the AVR loops on other shifts) */
+    uint8_t idx = (uint8_t)((uint8_t)(pos >> 16) << 1 | (uint8_t)((uint16_t)pos >> 15));
+    uint16_t frac = (uint16_t)pos & 0x7fffu;
+    uint16_t lo = tanh_table[idx], d = (uint16_t)(tanh_table[idx + 1u] - lo);
+    /* (d · frac + 2^14) >> 15, as a doubling and a two-byte shift */
+    return (uint16_t)(lo + (uint16_t)((((uint32_t)d * frac + 0x4000u) << 1) >> 16));
+}
+
+/* tanh(k / 16) in Q16, k = 0..64: tanh_f32's nodes. */
+static const uint16_t tanh_q16[65] = {
+    0,     4091,  8150,  12146, 16051, 19838, 23485, 26973, 30285, 33412, 36346, 39084, 41625,
+    43972, 46131, 48108, 49912, 51552, 53038, 54382, 55593, 56683, 57660, 58536, 59320, 60019,
+    60643, 61199, 61694, 62134, 62524, 62871, 63179, 63451, 63693, 63907, 64096, 64263, 64412,
+    64543, 64659, 64761, 64852, 64932, 65003, 65065, 65120, 65169, 65212, 65250, 65283, 65313,
+    65339, 65362, 65383, 65401, 65417, 65431, 65443, 65454, 65464, 65472, 65480, 65486, 65492,
+};
+
+/* 1 - tanh(4 + k / 4) in Q32, k = 0..20: its tail up to 9, past which float32 rounds to 1. */
+static const uint32_t tanh_tail_q32[21] = {
+    2880636, 1747424, 1059951, 642924, 389965, 236530, 143464, 87016, 52778, 32012, 19416,
+    11776,   7143,    4332,    2628,   1594,   967,    586,    356,    216,    131,
+};
+
+/* tanh's slope on the Q16 grid, per cell of 1/16: (1 - y²) / 16, in Q16. */
+static int16_t tanh_cell_slope(uint16_t y)
+{
+    return (int16_t)((65536u - (uint32_t)((uint32_t)y * y >> 16)) >> 4);
+}
+
+/* A Q31 value in [0, 2^31] as a float: the conversion is exact to float32's rounding, and
+ * the scale by 2^-31 is a change of exponent (the value is 0 or a normal number). */
+static float q31_to_float(uint32_t v)
+{
+    float f = (float)v;
+    uint32_t bits;
+    memcpy(&bits, &f, sizeof bits);
+    if (bits != 0u) {
+        bits -= (uint32_t)31 << 23;
     }
-    y = (int32_t)((uint32_t)y << (q_out - 15u));
-    return x < 0 ? -y : y;
+    memcpy(&f, &bits, sizeof f);
+    return f;
+}
+
+float tanh_f32(float x)
+{
+    uint32_t bits;
+    memcpy(&bits, &x, sizeof bits);
+    /* the biased exponent, bits 23-30, from whole bytes (the AVR loops on other shifts) */
+    uint8_t e = (uint8_t)((uint8_t)(bits >> 24) << 1 | (uint8_t)((uint16_t)(bits >> 16) >> 7));
+    uint32_t m = (bits & 0x7fffffu) | 0x800000u; /* |x| = m 2^(e - 150) */
+    uint32_t y31;
+    if (e < 107u || (e == 255u && (bits & 0x7fffffu) != 0u)) {
+        return x; /* |x| < 2^-20: tanh x = x to float32's precision; NaN passes */
+    }
+    if (e <= 128u) { /* |x| < 4: cubic Hermite on the grid, slopes 1 - y² */
+        uint8_t sh = (uint8_t)(131u - e); /* the position |x| 2^19 = m >> sh */
+        if (sh >= 16u) {
+            m >>= 16;
+            sh = (uint8_t)(sh - 16u);
+        }
+        if (sh >= 8u) {
+            m >>= 8;
+            sh = (uint8_t)(sh - 8u);
+        }
+        m >>= sh;
+        uint8_t k = (uint8_t)((uint8_t)(m >> 16) << 1 | (uint8_t)((uint16_t)m >> 15));
+        uint16_t t = (uint16_t)m & 0x7fffu; /* Q15 */
+        uint16_t y0 = tanh_q16[k], y1 = tanh_q16[k + 1u];
+        int16_t m0 = tanh_cell_slope(y0), m1 = tanh_cell_slope(y1);
+        int16_t d = (int16_t)(y1 - y0);
+        int16_t c2 = (int16_t)(3 * d - 2 * m0 - m1), c3 = (int16_t)(m0 + m1 - 2 * d);
+        uint16_t t2 = (uint16_t)(((uint32_t)t * t << 1) >> 16); /* >> 15, by bytes */
+        uint16_t t3 = (uint16_t)(((uint32_t)t2 * t << 1) >> 16);
+        /* Empty barrier: knowing their ranges, GCC would widen these to 32 × 32 multiplies. */
+        __asm__("" : "+r"(m0), "+r"(c2), "+r"(c3), "+r"(t), "+r"(t2), "+r"(t3));
+        int32_t r = (int32_t)m0 * t + (int32_t)c2 * t2 + (int32_t)c3 * t3; /* Q31 */
+        y31 = ((uint32_t)y0 << 16 >> 1) + (uint32_t)r;
+    } else if (e <= 130u) { /* 4 <= |x| < 16: the tail table, linear in quarters */
+        uint32_t q = (m >> (140u - e)) - ((uint32_t)4 << 10); /* (|x| - 4) 2^10 */
+        uint8_t k = (uint8_t)(q >> 8);
+        if (k >= 20u) {
+            y31 = (uint32_t)1 << 31;
+        } else {
+            uint32_t g = tanh_tail_q32[k] -
+                         ((tanh_tail_q32[k] - tanh_tail_q32[k + 1u]) * (uint8_t)q >> 8);
+            y31 = ((uint32_t)1 << 31) - (g >> 1);
+        }
+    } else {
+        y31 = (uint32_t)1 << 31;
+    }
+    float y = q31_to_float(y31);
+    return (bits & 0x80000000u) ? -y : y;
 }
 
 int32_t fx_from_float(float x, uint8_t q, uint8_t *status)

@@ -22,7 +22,47 @@
 /* x clamped to int32, flagging saturation. */
 int32_t fx_sat(int64_t x, uint8_t *status);
 
-/* Saturating add, subtract and negate: inline, a few instructions on either core. */
+/* Saturating add, subtract and negate, inline. On the AVR a few instructions read the
+ * overflow flag (avr-gcc 5.4 turns __builtin_add_overflow into ~60 cycles of compares);
+ * the host's C below gives the same result. On overflow the wrapped result has the
+ * wrong sign, so its sign fill with the top bit flipped is the bound: INT32_MAX for a
+ * wrapped negative, INT32_MIN for a wrapped positive. */
+#if defined(__AVR__)
+#define FX_AVR_SATURATE                                                                        \
+    "brvc 1f\n\t"                                                                              \
+    "ldi %1, 1\n\t"                                                                            \
+    "lsl %D0\n\t"                                                                              \
+    "sbc %A0, %A0\n\t"                                                                         \
+    "mov %B0, %A0\n\t"                                                                         \
+    "movw %C0, %A0\n\t"                                                                        \
+    "subi %D0, 0x80\n"                                                                          \
+    "1:"
+
+FX_INLINE int32_t fx_add(int32_t a, int32_t b, uint8_t *status)
+{
+    uint8_t sat = 0;
+    __asm__("add %A0, %A2\n\tadc %B0, %B2\n\tadc %C0, %C2\n\tadc %D0, %D2\n\t" FX_AVR_SATURATE
+            : "+d"(a), "+d"(sat)
+            : "r"(b));
+    if (sat) {
+        *status |= STATUS_SATURATED;
+    }
+    return a;
+}
+
+FX_INLINE int32_t fx_sub(int32_t a, int32_t b, uint8_t *status)
+{
+    uint8_t sat = 0;
+    __asm__("sub %A0, %A2\n\tsbc %B0, %B2\n\tsbc %C0, %C2\n\tsbc %D0, %D2\n\t" FX_AVR_SATURATE
+            : "+d"(a), "+d"(sat)
+            : "r"(b));
+    if (sat) {
+        *status |= STATUS_SATURATED;
+    }
+    return a;
+}
+#undef FX_AVR_SATURATE
+#else
 FX_INLINE int32_t fx_add(int32_t a, int32_t b, uint8_t *status)
 {
     int32_t r;
@@ -42,6 +82,7 @@ FX_INLINE int32_t fx_sub(int32_t a, int32_t b, uint8_t *status)
     }
     return r;
 }
+#endif
 
 FX_INLINE int32_t fx_neg(int32_t a, uint8_t *status) { return fx_sub(0, a, status); }
 
@@ -100,6 +141,38 @@ FX_INLINE int32_t fx_mul_shr(int32_t a, int32_t b, uint8_t s, uint8_t *status)
     return fx_mul_shr_c(a, b, s, status);
 }
 
+/* a · b · 2^-s for an int16 b (1 <= s <= 30), ties away from zero like fx_mul_rs, and the
+ * same bits: two 16 × 16 hardware products and byte shifts, no int64. Only a = INT32_MIN,
+ * b = INT16_MIN, s = 15 and smaller shifts can leave int32: those saturate (flagged). */
+FX_INLINE int32_t fx_mul16(int32_t a, int16_t b, uint8_t s, uint8_t *status)
+{
+    int16_t ah = (int16_t)((uint32_t)a >> 16);
+    uint16_t al = (uint16_t)a;
+    /* An empty barrier: GCC, knowing the operands' ranges, would otherwise widen them and
+     * call a 32 × 32 multiply instead of the 16 × 16 ones. */
+    __asm__("" : "+r"(ah), "+r"(al), "+r"(b));
+    /* a · b = H 2^16 + L with L in [0, 2^16): a · b < 0 exactly when H < 0 */
+    int32_t hi = (int32_t)ah * b;
+    int32_t lo = (int32_t)al * b;
+    int32_t H = hi + (lo >> 16);
+    uint16_t L = (uint16_t)lo;
+    uint8_t neg = H < 0;
+    if (s > 16u) { /* floor((H + 2^(s-17) - [L = 0 and negative]) 2^(16-s)) */
+        return (H + ((int32_t)1 << (s - 17u)) - (L == 0u && neg)) >> (s - 16u);
+    }
+    /* H 2^(16-s) + floor((L + 2^(s-1) - neg) 2^-s), the second in [0, 2^(17-s)) */
+    uint32_t low = ((uint32_t)L + ((uint32_t)1 << (s - 1u)) - neg) << (16u - s);
+    int32_t r;
+    if (H > (FX_MAX >> (16u - s)) || H < (FX_MIN >> (16u - s)) ||
+        __builtin_add_overflow((int32_t)((uint32_t)H << (16u - s)), (int32_t)(low >> 16), &r)) {
+        *status |= STATUS_SATURATED;
+        return neg ? FX_MIN : FX_MAX;
+    }
+    return r;
+}
+
+int32_t fx_mul16_c(int32_t a, int16_t b, uint8_t s, uint8_t *status);
+
 /* a (qa) * b (qb) -> q_out, ties away from zero; qa + qb <= q_out (no fraction bit to
  * drop) or a shift past 62 goes through int64 (fx_mul_wide). */
 int32_t fx_mul_wide(int32_t a, uint8_t qa, int32_t b, uint8_t qb, uint8_t q_out, uint8_t *status);
@@ -140,10 +213,31 @@ FX_INLINE int32_t fx_rescale(int32_t a, uint8_t q_in, uint8_t q_out, uint8_t *st
     return (int32_t)((uint32_t)a << u);
 }
 
-/* tanh(x) for x in qx (qx >= 4) -> q_out (15 <= q_out <= 30): a 65-entry Q15 table
- * over [0, 4] with linear interpolation; |error| <= 7e-4 for every x (3.8e-4 inside
- * [-4, 4], tanh(4)'s distance to 1 beyond). */
-int32_t fx_tanh(int32_t x, uint8_t qx, uint8_t q_out);
+/* tanh of |x| in Q15 from |x| in Q19 (16ths of the table's grid with 15 fraction bits),
+ * pos < 64 · 2^15: the table's interpolation, a 16 × 16 product and byte shifts. */
+uint16_t fx_tanh_q15_pos(uint32_t pos);
+
+/* tanh(x) for x in qx (4 <= qx <= 31) -> q_out (15 <= q_out <= 30): a 65-entry Q15 table
+ * over [0, 4] with linear interpolation; |error| <= 7e-4 for every x (3.92e-4 inside
+ * [-4, 4], tanh(4)'s distance to 1 beyond). With qx and q_out constants, the conversions
+ * are constant shifts. */
+FX_INLINE int32_t fx_tanh(int32_t x, uint8_t qx, uint8_t q_out)
+{
+    uint32_t mag = x < 0 ? (uint32_t)0 - (uint32_t)x : (uint32_t)x;
+    int32_t y;
+    if (mag >= (uint32_t)64 << (qx - 4u)) {
+        y = 32746; /* tanh(4), the table's last entry */
+    } else {
+        y = fx_tanh_q15_pos(qx >= 19u ? mag >> (qx - 19u) : mag << (19u - qx));
+    }
+    y = (int32_t)((uint32_t)y << (q_out - 15u));
+    return x < 0 ? -y : y;
+}
+
+/* tanh for float32 without libm's (~3,300 cycles on the AVR; ~300 here): a cubic Hermite
+ * through tanh(k / 16) in Q16 with the exact slopes 1 - y², and a table of its tail to 9;
+ * |error| < 3e-5 (tests/native/test_fixmath.py). The same bits on both builds. */
+float tanh_f32(float x);
 
 /* sqrt(a) for a >= 0, both in q (negative input: 0 and STATUS_CLAMPED). */
 int32_t fx_sqrt(int32_t a, uint8_t q, uint8_t *status);
