@@ -271,6 +271,8 @@ def _finish_run(
         "wall_s": round(run.wall_s, 3),
         "samples_per_s": round(rate, 1),
         "recording": str(run.recording) if run.recording else None,
+        "log_inputs": getattr(run.prepared.trace, "timing", None),
+        "log_notes": getattr(run.prepared.trace, "notes", None),
         "board_resets": [
             {"at_sample": r.at_sample, "recovery_s": round(r.recovery_s, 3)} for r in run.resumes
         ],
@@ -351,11 +353,14 @@ def cmd_replay(args: argparse.Namespace) -> int:
     log_path = Path(args.log).resolve()
     if log_path.is_dir():
         log_path = log_path / "run.arrow"
-    fmt = {".arrow": "vehil", ".csv": "csv", ".mf4": "mdf4", ".mdf": "mdf4"}.get(log_path.suffix)
+    fmt = scenario.LOG_SUFFIXES.get(log_path.suffix.lower())
     if fmt is None:
-        raise VehilError(f"{log_path}: unknown log type; give a .arrow recording, .csv or .mf4")
+        known = ", ".join(scenario.LOG_SUFFIXES)
+        raise VehilError(f"{log_path}: unknown log type; give a file ending in {known}")
     note = _replayed_cut(log_path, args.accept_truncated) if fmt == "vehil" else None
-    log = dict(data.get("log", {}))
+    # A recording carries the estimator's inputs by name: the scenario's [log] mapping
+    # is for the log it was written for, not for this.
+    log = {} if fmt == "vehil" else dict(data.get("log", {}))
     log.update(path=str(log_path), format=fmt)
     data.pop("plant", None)
     data["log"] = log

@@ -1,22 +1,51 @@
-"""Recorded drives as a run's input: CSV, MDF4 (asammdf) or a vehil recording.
+"""Recorded drives as a run's input: CSV, MDF4 (asammdf), raw CAN with a DBC, or a vehil
+recording.
 
-Every reader returns named columns with units; `trace_from_log` then picks the
-estimator's inputs and truths by the scenario's column mapping, checks units and
-values, and puts them on the scenario's sample grid. Every problem names the
-file, and the column or line.
+Each mapped channel is read with its own time stamps and unit, cleaned on its own
+(missing values dropped, duplicated stamps merged), converted to the unit the estimator
+wants (pint), checked for gaps, and resampled onto the scenario's grid (low-passed first
+where it is decimated); the grid covers only the time where every channel has data.
+Every problem names the file, and the column or line. `LogTrace.timing` says, per
+channel, what was done, for the run's report (docs/logs.md).
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+from scipy import signal
 
-from vehil.csvlog import Columns, LogError, read_csv
+from vehil import units
+from vehil.csvlog import Columns, LogError, read_columns
 from vehil.estimators.base import EstimatorSpec
 from vehil.plants.base import Trace
-from vehil.scenario import LogSource
+from vehil.scenario import ColumnMap, LogSource
+
+
+@dataclass
+class Channel:
+    """One logged signal on its own time stamps; x is NaN where the log has no value."""
+
+    name: str
+    t: np.ndarray
+    x: np.ndarray
+    unit: str
+    lines: np.ndarray | None = None  # a CSV's file line of each sample
+    missing: int = 0
+    merged: str = ""  # duplicated stamps merged, and where the first was
+
+    def place(self, i: int) -> str:
+        where = f"line {self.lines[i]}" if self.lines is not None else f"sample {i}"
+        return f"{where}, column {self.name}"
+
+
+@dataclass
+class LogTrace(Trace):
+    timing: list[dict[str, str]] = field(default_factory=list)  # one row per mapped input
+    notes: list[str] = field(default_factory=list)  # what was trimmed or split, and why
 
 
 def read_mdf4(path: Path, channels: list[str]) -> Columns:
@@ -26,20 +55,21 @@ def read_mdf4(path: Path, channels: list[str]) -> Columns:
         mdf = MDF(str(path))
     except Exception as exc:  # asammdf raises many types for a bad file
         raise LogError(f"{path}: not a readable MDF file: {exc}") from None
-    values, units = {}, {}
+    values, units_of = {}, {}
     with mdf:
         for name in channels:
             try:
                 sig = mdf.get(name)
             except Exception:
                 known = sorted(mdf.channels_db)[:20]
+                bus = " (raw CAN frames: set [log] dbc)" if "CAN_DataFrame" in known else ""
                 raise LogError(
-                    f"{path}: no channel {name!r}; some channels: {', '.join(known)}"
+                    f"{path}: no channel {name!r}; some channels: {', '.join(known)}{bus}"
                 ) from None
             values[name] = np.asarray(sig.samples, dtype=np.float64)
             values[f"{name}@t"] = np.asarray(sig.timestamps, dtype=np.float64)
-            units[name] = sig.unit or ""
-    return Columns(values, units)
+            units_of[name] = sig.unit or ""
+    return Columns(values, units_of)
 
 
 def read_recording(path: Path) -> Columns:
@@ -48,81 +78,273 @@ def read_recording(path: Path) -> Columns:
 
     rec = record.read(path)
     values = {"t": rec.data["t"]}
-    units = {"t": "s"}
+    units_of = {"t": "s"}
     for col, arr in rec.data.items():
         for prefix in ("in.", "truth."):
             if col.startswith(prefix):
                 name = col[len(prefix) :]
                 key = name if prefix == "in." else f"truth.{name}"
                 values[key] = arr
-                units[key] = rec.units.get(name, "")
-    return Columns(values, units)
+                units_of[key] = rec.units.get(name, "")
+    return Columns(values, units_of)
+
+
+def read_channels(log: LogSource, names: list[str]) -> dict[str, Channel]:
+    """The named channels of the log, each on its own time stamps (in s)."""
+    if not names:
+        return {}
+    if log.dbc is not None:
+        from vehil.canlog import read_can
+
+        got = read_can(log.path, log.format, log.dbc, names)
+        return {n: Channel(n, t, x, u) for n, (t, x, u) in got.items()}
+    if log.format == "csv":
+        cols = read_columns(
+            log.path, names, log.time, units_row=log.units_row, time_format=log.time_format
+        )
+        t_unit = cols.t_unit or log.time_unit
+        if not t_unit:
+            raise LogError(
+                f"{log.path}: time column {log.time!r} has no unit: write it in the header "
+                f"(`{log.time} [s]`) or set [log] time_unit"
+            )
+        try:
+            t = units.convert(cols.t, t_unit, "s")
+        except units.UnitError as exc:
+            raise LogError(f"{log.path}: time column {log.time!r}: {exc}") from None
+        return {n: Channel(n, t, cols.values[n], cols.units[n], cols.lines) for n in names}
+    named = read_mdf4(log.path, names) if log.format == "mdf4" else read_recording(log.path)
+    out = {}
+    for n in names:
+        if n not in named.values:
+            known = ", ".join(c for c in named.values if not c.endswith("@t"))
+            raise LogError(f"{log.path}: no column {n!r}; columns: {known}")
+        stamps = named.values.get(f"{n}@t", named.values.get("t"))
+        assert stamps is not None
+        out[n] = Channel(n, stamps, named.values[n], named.units.get(n, ""))
+    return out
+
+
+def clean(ch: Channel, path: Path) -> Channel:
+    """The channel's valid samples: missing values dropped, duplicated stamps merged (their
+    mean); time that goes back, or infinities, are refused where they are."""
+    inf = np.flatnonzero(np.isinf(ch.x) | np.isinf(ch.t))
+    if len(inf):
+        raise LogError(
+            f"{path}: {ch.place(inf[0])}: {ch.x[inf[0]]} is not a finite number "
+            f"({len(inf)} such values in the column): clean the log or drop those rows"
+        )
+    keep = ~(np.isnan(ch.x) | np.isnan(ch.t))
+    lines = ch.lines[keep] if ch.lines is not None else None
+    c = Channel(ch.name, ch.t[keep], ch.x[keep], ch.unit, lines, int((~keep).sum()))
+    if len(c.t) < 2:
+        raise LogError(
+            f"{path}: column {ch.name} has {len(c.t)} samples with a value "
+            f"({c.missing} missing); it needs two"
+        )
+    back = np.flatnonzero(np.diff(c.t) < 0)
+    if len(back):
+        i = back[0] + 1
+        raise LogError(
+            f"{path}: {c.place(i)}: time {c.t[i]:g} s goes back from {c.t[i - 1]:g} s before "
+            "it; time must increase (equal stamps are merged): sort the log by time"
+        )
+    same = np.flatnonzero(np.diff(c.t) == 0)
+    if len(same):
+        stamps, first, group = np.unique(c.t, return_index=True, return_inverse=True)
+        x = np.bincount(group, weights=c.x) / np.bincount(group)
+        c.merged = f"{len(same)} duplicated stamps merged (mean), first at {c.place(same[0] + 1)}"
+        c.t, c.x = stamps, x
+        c.lines = c.lines[first] if c.lines is not None else None
+    return c
+
+
+@dataclass
+class _Timing:
+    rate: float  # Hz, from the median step
+    jitter: float  # s, the standard deviation of the steps
+    limit: float  # s, the longest step that is not a gap
+    gaps: np.ndarray  # indices i with t[i + 1] - t[i] > limit
+
+
+def _timing(c: Channel, max_gap_s: float | None) -> _Timing:
+    d = np.diff(c.t)
+    step = float(np.median(d))
+    limit = max_gap_s if max_gap_s is not None else 5 * step
+    return _Timing(1 / step, float(np.std(d)), limit, np.flatnonzero(d > limit))
+
+
+def _stretches(c: Channel, tm: _Timing) -> list[tuple[float, float]]:
+    edges = [0, *(tm.gaps + 1)], [*tm.gaps, len(c.t) - 1]
+    return [(c.t[a], c.t[b]) for a, b in zip(*edges, strict=True)]
+
+
+def _split(
+    chans: dict[str, Channel], timing: dict[str, _Timing]
+) -> tuple[tuple[float, float], list[tuple[float, float]]]:
+    """The stretches where every channel has data with no gap; the longest first."""
+    pieces = [(-math.inf, math.inf)]
+    for name, c in chans.items():
+        pieces = [
+            (max(a, c0), min(b, c1))
+            for a, b in pieces
+            for c0, c1 in _stretches(c, timing[name])
+            if max(a, c0) < min(b, c1)
+        ]
+    if not pieces:
+        raise LogError("the channels share no stretch without a gap")
+    return max(pieces, key=lambda p: p[1] - p[0]), pieces
+
+
+def _on_grid(c: Channel, tm: _Timing, grid: np.ndarray, T: float) -> tuple[np.ndarray, str]:
+    """The channel on the grid, and how it got there."""
+    fs = 1 / T
+    k = np.searchsorted(c.t, grid)
+    k = np.clip(k, 0, len(c.t) - 1)
+    if np.all(np.abs(c.t[k] - grid) <= 1e-6 * T) and abs(tm.rate - fs) <= 1e-6 * fs:
+        return c.x[k], f"as logged ({tm.rate:.4g} Hz)"
+    if tm.rate > 1.05 * fs:
+        # Decimation: low-pass below the grid's Nyquist on the channel's own uniform grid.
+        own = np.arange(c.t[0], c.t[-1], 1 / tm.rate)
+        cutoff = 0.4 * fs
+        sos = signal.butter(4, cutoff, fs=tm.rate, output="sos")
+        x = signal.sosfiltfilt(sos, np.interp(own, c.t, c.x), padlen=min(27, len(own) - 1))
+        return np.interp(grid, own, x), (
+            f"low-pass {cutoff:.3g} Hz (Butterworth 4, zero phase), {tm.rate:.4g} → {fs:.4g} Hz"
+        )
+    return np.interp(grid, c.t, c.x), f"linear interpolation {tm.rate:.4g} → {fs:.4g} Hz"
+
+
+def _unit_error(path: Path, cm: ColumnMap, role: str, want: str, what: str) -> LogError:
+    return LogError(
+        f"{path}: column {cm.column!r} for {role}: {what}; {role} needs {want!r}: state the "
+        f'column\'s unit in the scenario: {{ column = "{cm.column}", unit = "..." }}'
+    )
+
+
+def _convert(
+    path: Path, cm: ColumnMap, unit: str, x: np.ndarray, want: str, role: str, T: float
+) -> tuple[np.ndarray, str]:
+    """The mapped value in the wanted unit, and a word on the conversion."""
+    if not unit:
+        raise _unit_error(path, cm, role, want, "it has no unit")
+    if not units.known(unit):
+        raise _unit_error(path, cm, role, want, f"its unit {unit!r} is not one vehil knows")
+    have = unit
+    x = x * cm.scale + cm.offset
+    how = [] if (cm.scale, cm.offset) == (1.0, 0.0) else [f"× {cm.scale:g} + {cm.offset:g}"]
+    if cm.derivative:
+        cut = min(cm.cutoff_hz, 0.4 / T)
+        sos = signal.butter(2, cut, fs=1 / T, output="sos")
+        x = np.gradient(signal.sosfiltfilt(sos, x, padlen=min(9, len(x) - 1)), T)
+        have = f"({unit})/s"
+        how.append(f"d/dt low-passed at {cut:.3g} Hz")
+    if cm.radius is not None:
+        have = f"({unit})/m"
+        x = x / cm.radius
+        how.append(f"/ radius {cm.radius:g} m")
+    try:
+        y = units.convert(x, have, want)
+    except units.UnitError as exc:
+        raise _unit_error(path, cm, role, want, str(exc)) from None
+    if not units.same(have, want):
+        how.append(f"{have} → {want}")
+    return y, ", ".join(how) or f"{unit} (as logged)"
 
 
 def trace_from_log(
     log: LogSource, spec: EstimatorSpec, sample_time: float, duration: float
-) -> Trace:
+) -> LogTrace:
+    T = sample_time
     inputs = {s.name: s for s in spec.inputs}
     outputs = {s.name: s for s in spec.outputs}
-    # A recording maps by name on its own; other logs need every input mapped.
-    columns = {n: log.columns.get(n, n) for n in inputs}
+    maps = {n: ColumnMap.of(log.columns.get(n, n)) for n in inputs}
     truths = dict(log.truth)
     if log.format == "vehil":
-        for n in outputs:
-            truths.setdefault(n, f"truth.{n}")
-    if log.format == "csv":
-        cols = read_csv(log.path)
-    elif log.format == "mdf4":
-        cols = read_mdf4(log.path, [*columns.values(), *truths.values()])
-    else:
-        cols = read_recording(log.path)
-        truths = {n: c for n, c in truths.items() if c in cols.values}
-
-    def column(name: str, unit: str, role: str) -> tuple[np.ndarray, np.ndarray]:
-        if name not in cols.values:
-            known = ", ".join(n for n in cols.values if not n.endswith("@t"))
-            raise LogError(f"{log.path}: no column {name!r} for {role}; columns: {known}")
-        have = cols.units.get(name, "")
-        if have and unit and have != unit:
-            raise LogError(f"{log.path}: column {name!r} is in {have!r}; {role} needs {unit!r}")
-        x = cols.values[name]
-        bad = np.flatnonzero(~np.isfinite(x))
-        if len(bad):
+        # A recording carries the estimator's signals by name: a log's mapping does not apply.
+        maps = {n: ColumnMap(column=n) for n in inputs}
+        recorded = read_recording(log.path).values
+        truths = {n: f"truth.{n}" for n in outputs if f"truth.{n}" in recorded}
+    truth_maps = {f"truth.{n}": ColumnMap.of(c) for n, c in truths.items()}
+    all_maps = {**maps, **truth_maps}
+    wants = {
+        **{n: s.unit for n, s in inputs.items()},
+        **{f"truth.{n}": s.unit for n, s in outputs.items()},
+    }
+    names = sorted({cm.column for cm in all_maps.values() if cm.column is not None})
+    chans = {n: clean(c, log.path) for n, c in read_channels(log, names).items()}
+    timing = {n: _timing(c, log.max_gap_s) for n, c in chans.items()}
+    notes = []
+    span = (max(c.t[0] for c in chans.values()), min(c.t[-1] for c in chans.values()))
+    gaps = [(n, i) for n, tm in timing.items() for i in tm.gaps]
+    if gaps:
+        n, i = gaps[0]
+        c, tm = chans[n], timing[n]
+        if log.on_gap == "refuse":
             raise LogError(
-                f"{log.path}: {cols.place(bad[0], name)}: {x[bad[0]]} is not a finite number "
-                f"({len(bad)} such values in the column): clean the log or drop those rows"
+                f"{log.path}: {c.place(i + 1)}: no value for {c.t[i + 1] - c.t[i]:.3g} s "
+                f"(t = {c.t[i]:.6g} to {c.t[i + 1]:.6g} s), past the {tm.limit:.3g} s a gap may "
+                f"span ({len(gaps)} such gaps): set [log] max_gap_s above it to bridge it by a "
+                'straight line, or on_gap = "split" to run the longest stretch without one'
             )
-        time_name = f"{name}@t" if f"{name}@t" in cols.values else log.time
-        t = cols.values.get(time_name)
-        if t is None:
-            raise LogError(f"{log.path}: no time column {log.time!r} (set [log] time = ...)")
-        if len(t) < 2:
-            raise LogError(f"{log.path}: column {name!r} has {len(t)} samples; it needs two")
-        back = np.flatnonzero(np.diff(t) <= 0)
-        if len(back):
-            i = back[0] + 1
-            shown = log.time if time_name == log.time else f"{name}'s time stamps"
-            raise LogError(
-                f"{log.path}: {cols.place(i, shown)}: time {t[i]:g} does not increase on "
-                f"{t[i - 1]:g} before it; time must increase strictly"
+        try:
+            span, pieces = _split(chans, timing)
+        except LogError as exc:
+            raise LogError(f"{log.path}: {exc}") from None
+        shown = ", ".join(f"{a:.6g}-{b:.6g} s" for a, b in pieces)
+        notes.append(
+            f"split at {len(gaps)} gaps longer than max_gap_s: stretches {shown}; "
+            f"running {span[0]:.6g}-{span[1]:.6g} s"
+        )
+    if span[1] - span[0] < T:
+        listed = ", ".join(f"{n} {c.t[0]:.6g}-{c.t[-1]:.6g} s" for n, c in chans.items())
+        raise LogError(f"{log.path}: the channels do not overlap in time: {listed}")
+    if chans:
+        first = {n: c.t[0] for n, c in chans.items()}
+        last = {n: c.t[-1] for n, c in chans.items()}
+        starts, ends = max(first, key=first.__getitem__), min(last, key=last.__getitem__)
+        if first[starts] > min(first.values()):
+            notes.append(f"the run starts where {starts} starts (t = {first[starts]:.6g} s)")
+        if last[ends] < max(last.values()):
+            notes.append(
+                f"the run ends where {ends} ends (t = {last[ends]:.6g} s; the log goes on to "
+                f"{max(last.values()):.6g} s)"
             )
-        return t, x
-
-    t0 = math.inf
-    t_end = -math.inf
-    picked: dict[str, tuple[np.ndarray, np.ndarray]] = {}
-    for n, c in columns.items():
-        picked[n] = column(c, inputs[n].unit, f"input {n}")
-    for n, c in truths.items():
-        picked[f"truth.{n}"] = column(c, outputs[n].unit, f"the truth of {n}")
-    for t, _ in picked.values():
-        t0, t_end = min(t0, t[0]), max(t_end, t[-1])
-    n_samples = int(math.floor((min(t_end - t0, duration)) / sample_time + 1e-9)) + 1
-    grid = t0 + np.arange(n_samples) * sample_time
-    on_grid = {k: np.interp(grid, t, x) for k, (t, x) in picked.items()}
-    return Trace(
-        t=grid - t0,
-        signals={n: on_grid[n] for n in columns},
-        truth={n: on_grid[f"truth.{n}"] for n in truths},
-        units={**{n: s.unit for n, s in inputs.items()}, **{n: s.unit for n, s in outputs.items()}},
+    n_samples = int(math.floor(min(span[1] - span[0], duration) / T + 1e-9)) + 1
+    grid = span[0] + np.arange(n_samples) * T
+    on_grid = {n: _on_grid(c, timing[n], grid, T) for n, c in chans.items()}
+    values, rows = {}, []
+    for key, cm in all_maps.items():
+        role = f"input {key}" if key in inputs else f"the truth of {key[6:]}"
+        want = wants[key]
+        if cm.column is None:
+            assert cm.value is not None
+            x = np.full(n_samples, cm.value)
+            values[key], how = _convert(log.path, cm, cm.unit or want, x, want, role, T)
+            rows.append({"input": key, "source": f"constant {cm.value:g}", "unit": how})
+            continue
+        c, tm = chans[cm.column], timing[cm.column]
+        x, resampled = on_grid[cm.column]
+        values[key], how = _convert(log.path, cm, cm.unit or c.unit, x, want, role, T)
+        rows.append(
+            {
+                "input": key,
+                "source": cm.column,
+                "unit": how,
+                "rate": f"{tm.rate:.4g} Hz",
+                "jitter": f"{tm.jitter * 1e3:.3g} ms",
+                "gaps": f"{len(tm.gaps)} > {tm.limit:.3g} s",
+                "missing": str(c.missing),
+                "duplicates": c.merged or "0",
+                "logged": f"{c.t[0]:.6g}-{c.t[-1]:.6g} s",
+                "resampling": resampled,
+            }
+        )
+    return LogTrace(
+        t=grid - span[0],
+        signals={n: values[n] for n in maps},
+        truth={k[6:]: values[k] for k in truth_maps},
+        units={s.name: s.unit for s in (*spec.inputs, *spec.outputs)},
+        timing=rows,
+        notes=notes,
     )

@@ -194,11 +194,24 @@ def write(s: Series, figures: Figures, context: dict[str, Any], out: Path) -> Pa
         + (f": {figures.verdict.reason}" if figures.verdict.reason else ""),
         "",
     ]
+    lines += _log_table(context)
     for caption, file in plots:
         lines += [f"## {caption}", "", f"![{caption}]({file})", ""]
     md = out / "report.md"
     md.write_text("\n".join(lines))
     return md
+
+
+def _log_table(context: dict[str, Any]) -> list[str]:
+    """A replayed log's coverage and timing: per input, its source, unit conversion, rate,
+    jitter, gaps, missing and merged samples, and the resampling applied."""
+    rows = context.get("log_inputs")
+    if not rows:
+        return []
+    keys = list(dict.fromkeys(k for r in rows for k in r))
+    lines = ["## Log inputs", "", "| " + " | ".join(keys) + " |", "|" + "---|" * len(keys)]
+    lines += ["| " + " | ".join(r.get(k, "") for k in keys) + " |" for r in rows]
+    return [*lines, "", *(f"- {n}" for n in context.get("log_notes") or ()), ""]
 
 
 def diff_table(d: dict[str, Any], a: str, b: str) -> Table:

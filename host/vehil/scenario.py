@@ -19,7 +19,21 @@ from vehil.estimators.base import MODES, EstimatorSpec
 from vehil.paths import PROJECT_ROOT
 
 SCENARIO_DIR = PROJECT_ROOT / "scenarios"
-LOG_FORMATS = ("csv", "mdf4", "vehil")
+LOG_FORMATS = ("csv", "mdf4", "vehil", "blf", "asc", "candump")
+LOG_SUFFIXES = {
+    ".csv": "csv",
+    ".mf4": "mdf4",
+    ".mdf": "mdf4",
+    ".arrow": "vehil",
+    ".blf": "blf",
+    ".asc": "asc",
+    ".log": "candump",
+}
+# Exports that need only their column map: the time column, its text format, a units row.
+LOG_PRESETS: dict[str, dict[str, Any]] = {
+    "torque": {"format": "csv", "time": "Device Time", "time_format": "%d-%b-%Y %H:%M:%S.%f"},
+    "asammdf": {"format": "csv", "time": "timestamps", "units_row": True},
+}
 
 
 class ScenarioError(VehilError):
@@ -39,12 +53,42 @@ class Tolerance:
 
 
 @dataclass(frozen=True)
+class ColumnMap:
+    """Where one estimator input (or truth) comes from in a log: a column (its unit
+    stated, scaled and offset: value = raw * scale + offset in that unit), the filtered
+    time derivative of a column, a column divided by a wheel radius, or a constant."""
+
+    column: str | None = None
+    unit: str | None = None  # the scenario's word on the column's unit, over the log's
+    scale: float = 1.0
+    offset: float = 0.0
+    derivative: bool = False  # d/dt of the column, low-passed at cutoff_hz
+    cutoff_hz: float = 2.0
+    radius: float | None = None  # m: a speed over a wheel radius gives a wheel speed
+    value: float | None = None  # a constant, in `unit` or the input's unit
+
+    @classmethod
+    def of(cls, spec: str | ColumnMap) -> ColumnMap:
+        if isinstance(spec, ColumnMap):
+            return spec
+        if spec.startswith("d/dt "):
+            return cls(column=spec[5:].strip(), derivative=True)
+        return cls(column=spec)
+
+
+@dataclass(frozen=True)
 class LogSource:
     path: Path
     format: str
     time: str
-    columns: dict[str, str]  # estimator input -> column
-    truth: dict[str, str]  # estimator output -> column
+    columns: dict[str, str | ColumnMap]  # estimator input -> column
+    truth: dict[str, str | ColumnMap]  # estimator output -> column
+    dbc: Path | None = None  # raw CAN: signals are MESSAGE.SIGNAL of this DBC
+    time_format: str | None = None  # strptime codes of text time stamps
+    time_unit: str | None = None  # the time column's unit, where its header has none
+    units_row: bool = False  # a row of units under the header (asammdf's CSV export)
+    max_gap_s: float | None = None  # None: 5 of a channel's median steps
+    on_gap: str = "refuse"  # or "split": run the longest stretch without a gap
 
 
 @dataclass(frozen=True)
@@ -117,6 +161,52 @@ class _Checker:
     def sub(self, key: str) -> _Checker:
         return _Checker(self.where, self.table.get(key, {}), f"{self.section}.{key}".strip("."))
 
+    def columns(self, key: str, allowed: tuple[str, ...], what: str) -> dict[str, str | ColumnMap]:
+        """[log.columns] and [log.truth]: a column name, "d/dt NAME", a number (a
+        constant), or a table of column, unit, scale, offset, derivative, cutoff_hz,
+        radius, value."""
+        table = self.sub(key)
+        out: dict[str, str | ColumnMap] = {}
+        for name, value in table.table.items():
+            if name not in allowed:
+                raise table.fail(name, f"no {what} of that name; known: {', '.join(allowed)}")
+            if isinstance(value, str):
+                out[name] = value
+            elif isinstance(value, int | float) and not isinstance(value, bool):
+                out[name] = ColumnMap(value=float(value))
+            elif isinstance(value, dict):
+                c = table.sub(name)
+                c.only(
+                    "column",
+                    "unit",
+                    "scale",
+                    "offset",
+                    "derivative",
+                    "cutoff_hz",
+                    "radius",
+                    "value",
+                )
+                if ("column" in c.table) == ("value" in c.table):
+                    raise c.fail("", "give exactly one of column and value")
+                derivative = c.table.get("derivative", False)
+                if not isinstance(derivative, bool):
+                    raise c.fail("derivative", f"must be true or false, got {derivative!r}")
+                out[name] = ColumnMap(
+                    column=c.text("column") if "column" in c.table else None,
+                    unit=c.text("unit") if "unit" in c.table else None,
+                    scale=c.number("scale", 1.0),
+                    offset=c.number("offset", 0.0),
+                    derivative=derivative,
+                    cutoff_hz=c.number("cutoff_hz", 2.0, lo=1e-3),
+                    radius=c.number("radius", lo=1e-3, hi=10.0) if "radius" in c.table else None,
+                    value=c.number("value") if "value" in c.table else None,
+                )
+            else:
+                raise table.fail(
+                    name, f'must be a column name, "d/dt NAME", a number or a table; got {value!r}'
+                )
+        return out
+
     def mapping(self, key: str, allowed: tuple[str, ...], what: str) -> dict[str, str]:
         table = self.sub(key)
         for name, value in table.table.items():
@@ -129,6 +219,56 @@ class _Checker:
 
 def _numbers(table: _Checker) -> dict[str, float]:
     return {k: table.number(k) for k in table.table}
+
+
+def _log_source(
+    lg: _Checker, path: Path | None, inputs: tuple[str, ...], outputs: tuple[str, ...]
+) -> LogSource:
+    lg.only(
+        "path",
+        "format",
+        "preset",
+        "time",
+        "time_format",
+        "time_unit",
+        "units_row",
+        "dbc",
+        "max_gap_s",
+        "on_gap",
+        "columns",
+        "truth",
+    )
+    base = path.parent if path else Path.cwd()
+    log_path = (base / lg.text("path")).resolve()
+    preset: dict[str, Any] = {}
+    if "preset" in lg.table:
+        preset = LOG_PRESETS[lg.text("preset", choices=tuple(LOG_PRESETS))]
+    fmt = lg.text(
+        "format",
+        preset.get("format") or LOG_SUFFIXES.get(log_path.suffix.lower(), "csv"),
+        choices=LOG_FORMATS,
+    )
+    dbc = (base / lg.text("dbc")).resolve() if "dbc" in lg.table else None
+    if fmt in ("blf", "asc", "candump") and dbc is None:
+        raise lg.fail("dbc", f"a {fmt} log holds raw CAN frames: name the DBC that decodes them")
+    units_row = lg.table.get("units_row", preset.get("units_row", False))
+    if not isinstance(units_row, bool):
+        raise lg.fail("units_row", f"must be true or false, got {units_row!r}")
+    return LogSource(
+        path=log_path,
+        format=fmt,
+        time=lg.text("time", preset.get("time", "t")),
+        columns=lg.columns("columns", inputs, "estimator input"),
+        truth=lg.columns("truth", outputs, "estimator output"),
+        dbc=dbc,
+        time_format=lg.text("time_format")
+        if "time_format" in lg.table
+        else preset.get("time_format"),
+        time_unit=lg.text("time_unit") if "time_unit" in lg.table else None,
+        units_row=units_row,
+        max_gap_s=lg.number("max_gap_s", lo=1e-6) if "max_gap_s" in lg.table else None,
+        on_gap=lg.text("on_gap", "refuse", choices=("refuse", "split")),
+    )
 
 
 def parse(data: dict[str, Any], where: str, path: Path | None = None) -> Scenario:
@@ -199,16 +339,7 @@ def parse(data: dict[str, Any], where: str, path: Path | None = None) -> Scenari
         if sc.table.get("closed_loop"):
             raise sc.fail("closed_loop", "a recorded drive cannot close a loop")
         closed_loop = False
-        lg = top.sub("log")
-        lg.only("path", "format", "time", "columns", "truth")
-        base = path.parent if path else Path.cwd()
-        log = LogSource(
-            path=(base / lg.text("path")).resolve(),
-            format=lg.text("format", "csv", choices=LOG_FORMATS),
-            time=lg.text("time", "t"),
-            columns=lg.mapping("columns", inputs, "estimator input"),
-            truth=lg.mapping("truth", outputs, "estimator output"),
-        )
+        log = _log_source(top.sub("log"), path, inputs, outputs)
         # A log runs to its end unless the scenario cuts it shorter.
         duration = sc.number("duration", lo=sample_time) if "duration" in sc.table else math.inf
     signals = top.mapping("signals", inputs, "estimator input")

@@ -1,29 +1,33 @@
-"""Recorded drives: columns, units and values are checked, and each problem is located."""
+"""Recorded drives: units converted or refused, each channel cleaned and resampled on its
+own, gaps and edges handled, raw CAN decoded with a DBC; each problem is located."""
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from vehil import estimators
 from vehil.logs import LogError, trace_from_log
-from vehil.scenario import LogSource
+from vehil.scenario import ColumnMap, LogSource
 
 SPEC = estimators.get("passthrough")
+ACC = estimators.get("acc_kf")
 
 
 def log(path, **kw) -> LogSource:  # noqa: ANN001
     return LogSource(
         path=path,
-        format="csv",
-        time=kw.get("time", "t"),
-        columns=kw.get("columns", {"y": "speed"}),
-        truth=kw.get("truth", {}),
+        format=kw.pop("format", "csv"),
+        time=kw.pop("time", "t"),
+        columns=kw.pop("columns", {"y": "speed"}),
+        truth=kw.pop("truth", {}),
+        **kw,
     )
 
 
-def csv(tmp_path, text: str):  # noqa: ANN001, ANN201
-    path = tmp_path / "drive.csv"
+def csv(tmp_path, text: str, name: str = "drive.csv") -> Path:  # noqa: ANN001
+    path = tmp_path / name
     path.write_text(text)
     return path
 
@@ -34,45 +38,195 @@ def test_a_csv_log_is_resampled_onto_the_sample_grid(tmp_path) -> None:  # noqa:
     np.testing.assert_allclose(trace.t, [0, 0.05, 0.1, 0.15, 0.2])
     np.testing.assert_allclose(trace.signals["y"], [0, 0.5, 1, 1.5, 2])
     np.testing.assert_allclose(trace.truth["y"], [0, 1, 2, 3, 4])
+    assert trace.timing[0]["resampling"] == "linear interpolation 10 → 20 Hz"
 
 
 @pytest.mark.parametrize(
-    ("text", "kw", "message"),
+    ("text", "message"),
     [
-        ("t [s],v [1]\n0,1\n0.1,2\n", {}, r"no column 'speed' for input y; columns: t, v"),
-        ("t [s],speed [km/h]\n0,1\n0.1,2\n", {}, r"column 'speed' is in 'km/h'; input y needs '1'"),
+        ("t [s],v [1]\n0,1\n0.1,2\n", r"no column 'speed'; columns: 't', 'v'"),
         (
-            "t [s],speed\n0,1\n0.1,nan\n",
-            {},
-            r"line 3, column speed: nan is not a finite number \(1 such values",
+            "t [s],speed [m]\n0,1\n0.1,2\n",
+            r"column 'speed' for input y: 'm' does not convert to '1'",
         ),
+        ("t [s],speed\n0,1\n0.1,2\n", r"column 'speed' for input y: it has no unit; input y needs"),
+        ("t [s],speed [furlong/fortnite]\n0,1\n0.1,2\n", r"its unit 'furlong/fortnite' is not one"),
         (
-            "t [s],speed\n0,1\n0.1,2\n0.2\n",
-            {},
-            r"line 4 has 1 fields, the header 2 \(the file looks cut short\)",
+            "t [s],speed [1]\n0,1\n0.1,2\n0.2\n",
+            r"line 4 has 1 fields, the header 2 \(the file looks",
         ),
-        ("t [s],speed\n0,1\n0.1,fast\n", {}, r"line 3, column speed: 'fast' is not a number"),
-        ("time,speed\n0,1\n0.1,2\n", {}, r"no time column 't'"),
-        ("t,speed\n0,1\n0,2\n", {}, r"line 3, column t: time 0 does not increase on 0 before"),
-        ("", {}, r"empty file"),
-        ("t [s],[1]\n0,1\n", {}, r"line 1, column 2: header cell '\[1\]' is not"),
+        ("t [s],speed [1]\n0,1\n0.1,fast\n", r"line 3, column speed: 'fast' is not a number"),
+        ("t [s],speed [1]\n0,1\n0.1,inf\n", r"line 3, column speed: inf is not a finite number"),
+        ("time [s],speed [1]\n0,1\n0.1,2\n", r"no time column \(set \[log\] time\) 't'"),
+        ("t,speed [1]\n0,1\n0.1,2\n", r"time column 't' has no unit: write it in the header"),
+        ("t [s],speed [1]\n0,1\n0.2,2\n0.1,3\n", r"line 4, column speed: time 0.1 s goes back"),
+        ("t [s],speed [1]\n0,1\n-,2\n", r"column speed has 1 samples with a value"),
+        ("", r"empty file"),
     ],
 )
-def test_bad_logs_are_refused_with_file_and_place(tmp_path, text, kw, message) -> None:  # noqa: ANN001
+def test_bad_logs_are_refused_with_file_and_place(tmp_path, text, message) -> None:  # noqa: ANN001
     path = csv(tmp_path, text)
     with pytest.raises(LogError, match=message) as exc:
-        trace_from_log(log(path, **kw), SPEC, 0.05, math.inf)
+        trace_from_log(log(path), SPEC, 0.05, math.inf)
     assert str(path) in str(exc.value)
 
 
-def test_a_nan_and_a_time_step_back_are_named_by_the_file_line_and_column(tmp_path) -> None:  # noqa: ANN001
-    rows = [f"{k * 0.1:.1f},{k}" for k in range(60)]
-    rows[50] = "5.0,nan"  # sample 50: the file's line 52, after the header
-    with pytest.raises(LogError, match=r"line 52, column speed: nan"):
-        trace_from_log(log(csv(tmp_path, "t [s],speed\n" + "\n".join(rows))), SPEC, 0.1, 10)
-    rows[50] = "4.9,50"  # time goes back on line 52
-    with pytest.raises(LogError, match=r"line 52, column t: time 4.9 does not increase on 4.9"):
-        trace_from_log(log(csv(tmp_path, "t [s],speed\n" + "\n".join(rows))), SPEC, 0.1, 10)
+TORQUE = (
+    "GPS Time, Device Time, Longitude, Speed (OBD)(km/h), Acceleration Sensor(X axis)(g),"
+    " Engine RPM(rpm)\n"
+)
+
+
+def torque_log(tmp_path, n: int = 200) -> Path:  # noqa: ANN001
+    """An OBD app's export: text time stamps at 1 Hz, `-` cells, km/h and g headers."""
+    rows = []
+    for k in range(n):
+        ms = (37 * k) % 100  # stamps jitter by up to 0.1 s
+        stamp = f"25-Nov-2026 10:{k // 60:02d}:{k % 60:02d}.{ms:03d}"
+        speed = "-" if k % 17 == 5 else f"{36 + 0.36 * (k + ms / 1000):.4f}"  # 10 m/s + 0.1 t
+        acc = "" if k % 23 == 7 else f"{0.1 / 9.80665:.6f}"
+        rows.append(f"-, {stamp}, -, {speed}, {acc}, -")
+    return csv(tmp_path, TORQUE + "\n".join(rows) + "\n", "torque.csv")
+
+
+def acc_columns(**over) -> dict:  # noqa: ANN003
+    cols = {
+        "a_m": "Acceleration Sensor(X axis)",
+        "omega_l": ColumnMap(column="Speed (OBD)", radius=0.3),
+        "omega_r": ColumnMap(column="Speed (OBD)", radius=0.3),
+        "brake": ColumnMap(value=0.0),
+    }
+    return {**cols, **over}
+
+
+def test_an_obd_app_export_runs_with_its_units_converted(tmp_path) -> None:  # noqa: ANN001
+    source = log(
+        torque_log(tmp_path),
+        time="Device Time",
+        time_format="%d-%b-%Y %H:%M:%S.%f",
+        columns=acc_columns(),
+        truth={"v": "Speed (OBD)"},
+    )
+    trace = trace_from_log(source, ACC, 0.1, math.inf)
+    np.testing.assert_allclose(trace.truth["v"], 10 + 0.1 * trace.t, atol=1e-4)
+    np.testing.assert_allclose(trace.signals["omega_l"], trace.truth["v"] / 0.3, atol=1e-9)
+    np.testing.assert_allclose(trace.signals["a_m"], 0.1, atol=1e-5)
+    assert np.all(trace.signals["brake"] == 0) and len(trace) > 1900
+    rows = {r["input"]: r for r in trace.timing}
+    assert rows["omega_l"]["unit"] == "/ radius 0.3 m, (km/h)/m → rad/s"
+    assert rows["a_m"]["unit"] == "g → m/s^2"
+    assert rows["brake"]["source"] == "constant 0"
+    assert rows["omega_l"]["missing"] == "12"  # the `-` cells of that column alone
+    assert rows["omega_l"]["resampling"].startswith("linear interpolation 0.96")
+
+
+def test_a_column_with_no_unit_runs_once_the_scenario_states_it(tmp_path) -> None:  # noqa: ANN001
+    path = csv(tmp_path, "t [s],speed\n0,0\n0.1,36\n0.2,72\n")
+    with pytest.raises(
+        LogError, match=r'state the column\'s unit in the scenario: \{ column = "speed"'
+    ):
+        trace_from_log(log(path), SPEC, 0.1, 1)
+    stated = {"y": ColumnMap(column="speed", unit="1", scale=2.0, offset=1.0)}
+    trace = trace_from_log(log(path, columns=stated), SPEC, 0.1, math.inf)
+    np.testing.assert_allclose(trace.signals["y"], [1, 73, 145])
+    assert trace.timing[0]["unit"] == "× 2 + 1"
+
+
+def test_a_gap_is_refused_where_it_is_or_split_off(tmp_path) -> None:  # noqa: ANN001
+    t = np.r_[np.arange(0, 20, 0.1), np.arange(30, 45, 0.1)]
+    text = "t [s],speed [1]\n" + "\n".join(f"{x:.1f},{x:.3f}" for x in t)
+    path = csv(tmp_path, text)
+    with pytest.raises(
+        LogError,
+        match=r"line 202, column speed: no value for 10.1 s \(t = 19.9 to 30 s\), past the 0.5 s",
+    ):
+        trace_from_log(log(path), SPEC, 0.1, math.inf)
+    split = trace_from_log(log(path, on_gap="split"), SPEC, 0.1, math.inf)
+    assert split.t[-1] == pytest.approx(19.9) and split.signals["y"][0] == 0.0
+    assert "split at 1 gaps longer than max_gap_s: stretches 0-19.9 s, 30-44.9 s" in split.notes[0]
+    bridged = trace_from_log(log(path, max_gap_s=11.0), SPEC, 0.1, math.inf)
+    assert bridged.t[-1] == pytest.approx(44.9)
+
+
+def test_duplicated_stamps_are_merged_and_the_first_is_named(tmp_path) -> None:  # noqa: ANN001
+    text = "t [s],speed [1]\n0,0\n0.1,1\n0.1,3\n0.2,4\n0.3,5\n0.3,7\n"
+    trace = trace_from_log(log(csv(tmp_path, text)), SPEC, 0.1, math.inf)
+    np.testing.assert_allclose(trace.signals["y"], [0, 2, 4, 6])
+    assert trace.timing[0]["duplicates"] == (
+        "2 duplicated stamps merged (mean), first at line 4, column speed"
+    )
+    assert trace.timing[0]["resampling"] == "as logged (10 Hz)"
+
+
+def test_the_run_ends_where_the_first_input_ends(tmp_path) -> None:  # noqa: ANN001
+    rows = [f"{k * 0.1:.1f},{k},{k if k <= 200 else '-'}" for k in range(600)]
+    path = csv(tmp_path, "t [s],a [1],b [1]\n" + "\n".join(rows))
+    trace = trace_from_log(log(path, truth={"y": "b"}, columns={"y": "a"}), SPEC, 0.1, math.inf)
+    assert trace.t[-1] == pytest.approx(20.0)
+    assert trace.notes == ["the run ends where b ends (t = 20 s; the log goes on to 59.9 s)"]
+
+
+def test_a_fast_channel_is_low_passed_before_it_is_decimated(tmp_path) -> None:  # noqa: ANN001
+    t = np.arange(0, 20, 1 / 83)  # 83 Hz: a 1 Hz signal and 37 Hz noise, aliased at 10 Hz
+    x = np.sin(2 * np.pi * t) + np.sin(2 * np.pi * 37 * t)
+    path = csv(
+        tmp_path,
+        "t [s],speed [1]\n" + "\n".join(f"{a:.6f},{b:.6f}" for a, b in zip(t, x, strict=True)),
+    )
+    trace = trace_from_log(log(path), SPEC, 0.1, math.inf)
+    err = trace.signals["y"] - np.sin(2 * np.pi * (trace.t + t[0]))
+    assert np.sqrt(np.mean(err[20:-20] ** 2)) < 0.05  # aliased, the 37 Hz would give 0.7
+    assert trace.timing[0]["resampling"].startswith("low-pass 4 Hz (Butterworth 4, zero phase), 83")
+
+
+def test_a_derivative_is_filtered_and_in_the_wanted_unit(tmp_path) -> None:  # noqa: ANN001
+    t = np.arange(0, 10, 0.01)
+    rng = np.random.default_rng(1)
+    kmh = 3.6 * (5 + 0.5 * t**2 / 2) + rng.normal(0, 0.05, len(t))  # a = 0.5 t m/s²
+    path = csv(
+        tmp_path,
+        "t [s],Speed [km/h]\n" + "\n".join(f"{a:.2f},{b:.4f}" for a, b in zip(t, kmh, strict=True)),
+    )
+    cols = {
+        "a_m": ColumnMap.of("d/dt Speed"),
+        "omega_l": ColumnMap(value=1.0),
+        "omega_r": ColumnMap(value=1.0),
+        "brake": ColumnMap(value=0.0),
+    }
+    trace = trace_from_log(log(path, columns=cols), ACC, 0.01, math.inf)
+    a = trace.signals["a_m"][100:-100]
+    np.testing.assert_allclose(a, 0.5 * trace.t[100:-100], atol=0.1)  # raw: ~1 m/s² noise
+    assert {r["input"]: r["unit"] for r in trace.timing}["a_m"] == (
+        "d/dt low-passed at 2 Hz, (km/h)/s → m/s^2"
+    )
+
+
+def test_an_asammdf_csv_export_reads_its_units_row(tmp_path) -> None:  # noqa: ANN001
+    from asammdf import MDF, Signal
+
+    t = np.arange(0, 2, 0.01)
+    mdf = MDF(version="4.10")
+    mdf.append([Signal(3.6 * t, t, name="speed", unit="km/h")])
+    mdf.export("csv", tmp_path / "drive.csv", add_units=True)
+    path = next(tmp_path.glob("drive*.csv"))
+    cols = {"a_m": 0.0, "omega_l": ColumnMap(column="speed", radius=0.5), "omega_r": 2.0}
+    source = log(path, time="timestamps", units_row=True, columns=cols | {"brake": 0.0})
+    trace = trace_from_log(
+        LogSource(
+            **{
+                **source.__dict__,
+                "columns": {
+                    k: v if isinstance(v, ColumnMap) else ColumnMap(value=v)
+                    for k, v in cols.items()
+                }
+                | {"brake": ColumnMap(value=0.0)},
+            }
+        ),
+        ACC,
+        0.01,
+        math.inf,
+    )
+    np.testing.assert_allclose(trace.signals["omega_l"], 2 * trace.t, atol=1e-9)
 
 
 def test_an_mdf4_log_gives_its_channels_with_their_units(tmp_path) -> None:  # noqa: ANN001
@@ -83,13 +237,75 @@ def test_an_mdf4_log_gives_its_channels_with_their_units(tmp_path) -> None:  # n
     mdf.append([Signal(np.sin(t), t, name="speed", unit="1"), Signal(t, t, name="odo", unit="m")])
     path = tmp_path / "drive.mf4"
     mdf.save(path, overwrite=True)
-    source = LogSource(path=path, format="mdf4", time="t", columns={"y": "speed"}, truth={})
-    trace = trace_from_log(source, SPEC, 0.02, math.inf)
+    trace = trace_from_log(log(path, format="mdf4"), SPEC, 0.02, math.inf)
     assert len(trace) == 50
-    np.testing.assert_allclose(trace.signals["y"], np.sin(np.arange(50) * 0.02), atol=1e-12)
-    wrong_unit = LogSource(path=path, format="mdf4", time="t", columns={"y": "odo"}, truth={})
-    with pytest.raises(LogError, match="column 'odo' is in 'm'; input y needs '1'"):
-        trace_from_log(wrong_unit, SPEC, 0.02, math.inf)
-    missing = LogSource(path=path, format="mdf4", time="t", columns={"y": "rpm"}, truth={})
+    np.testing.assert_allclose(trace.signals["y"], np.sin(np.arange(50) * 0.02), atol=1e-5)
+    assert trace.timing[0]["resampling"].startswith("low-pass 20 Hz")
+    same_rate = trace_from_log(log(path, format="mdf4"), SPEC, 0.01, math.inf)
+    np.testing.assert_array_equal(same_rate.signals["y"], np.sin(t))
+    with pytest.raises(LogError, match="column 'odo' for input y: 'm' does not convert to '1'"):
+        trace_from_log(log(path, format="mdf4", columns={"y": "odo"}), SPEC, 0.02, math.inf)
     with pytest.raises(LogError, match="no channel 'rpm'"):
-        trace_from_log(missing, SPEC, 0.02, math.inf)
+        trace_from_log(log(path, format="mdf4", columns={"y": "rpm"}), SPEC, 0.02, math.inf)
+
+
+DBC = """VERSION ""
+BU_: ECU
+BO_ 291 WHEEL_SPEEDS: 4 ECU
+ SG_ WHEEL_SPEED_FL : 0|16@1+ (0.01,0) [0|655.35] "km/h" ECU
+ SG_ WHEEL_SPEED_FR : 16|16@1+ (0.01,0) [0|655.35] "km/h" ECU
+BO_ 292 ACCEL: 2 ECU
+ SG_ ACCEL_X : 0|16@1- (0.001,0) [-32|32] "m/s^2" ECU
+"""
+
+
+def can_log(tmp_path, suffix: str) -> tuple[Path, Path]:  # noqa: ANN001
+    """2 s of wheel speeds at 100 Hz and acceleration at 50 Hz, written by python-can."""
+    import can
+    import cantools
+
+    dbc = tmp_path / "car.dbc"
+    dbc.write_text(DBC)
+    db = cantools.database.load_file(str(dbc))
+    path = tmp_path / f"drive{suffix}"
+    with can.Logger(str(path)) as writer:
+        for k in range(200):
+            t = 1000.0 + k * 0.01
+            kmh = 36 + 3.6 * 0.5 * k * 0.01  # 10 m/s + 0.5 m/s²
+            data = db.encode_message("WHEEL_SPEEDS", {"WHEEL_SPEED_FL": kmh, "WHEEL_SPEED_FR": kmh})
+            writer(can.Message(timestamp=t, arbitration_id=291, data=data, is_extended_id=False))
+            if k % 2 == 0:
+                data = db.encode_message("ACCEL", {"ACCEL_X": 0.5})
+                writer(
+                    can.Message(
+                        timestamp=t + 0.003, arbitration_id=292, data=data, is_extended_id=False
+                    )
+                )
+    return path, dbc
+
+
+@pytest.mark.parametrize(
+    ("suffix", "fmt"), [(".mf4", "mdf4"), (".blf", "blf"), (".asc", "asc"), (".log", "candump")]
+)
+def test_raw_can_is_decoded_with_the_dbc(tmp_path, suffix, fmt) -> None:  # noqa: ANN001
+    path, dbc = can_log(tmp_path, suffix)
+    cols = {
+        "a_m": "ACCEL.ACCEL_X",
+        "omega_l": ColumnMap(column="WHEEL_SPEEDS.WHEEL_SPEED_FL", radius=0.25),
+        "omega_r": ColumnMap(column="WHEEL_SPEEDS.WHEEL_SPEED_FR", radius=0.25),
+        "brake": ColumnMap(value=0.0),
+    }
+    source = log(
+        path, format=fmt, dbc=dbc, columns=cols, truth={"v": "WHEEL_SPEEDS.WHEEL_SPEED_FL"}
+    )
+    trace = trace_from_log(source, ACC, 0.02, math.inf)
+    t_log = trace.t + 0.003  # the run starts at the first ACCEL frame
+    np.testing.assert_allclose(trace.truth["v"], 10 + 0.5 * t_log, atol=0.01)
+    np.testing.assert_allclose(trace.signals["omega_l"], trace.truth["v"] / 0.25, atol=1e-9)
+    np.testing.assert_allclose(trace.signals["a_m"], 0.5, atol=1e-3)
+    rows = {r["input"]: r for r in trace.timing}
+    assert rows["omega_l"]["unit"] == "/ radius 0.25 m, (km/h)/m → rad/s"
+    assert rows["omega_l"]["rate"] == "100 Hz" and rows["a_m"]["rate"] == "50 Hz"
+    bad = log(path, format=fmt, dbc=dbc, columns={**cols, "a_m": "ACCEL.ACCEL_Y"})
+    with pytest.raises(LogError, match=r"'ACCEL.ACCEL_Y' is not a MESSAGE.SIGNAL of car.dbc"):
+        trace_from_log(bad, ACC, 0.02, math.inf)
