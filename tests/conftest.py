@@ -26,3 +26,23 @@ def native_lib(built):  # noqa: ANN001, ANN201
     from vehil.transports.protocol_native import load_library
 
     return load_library(built["native"])
+
+
+@pytest.fixture
+def torque_log(tmp_path):  # noqa: ANN001, ANN201
+    """An OBD app's export (Torque's layout): text time stamps at 1 Hz with jitter, `-` and
+    empty cells, km/h and g headers; speed 10 m/s + 0.1 m/s per s, acceleration 0.1 m/s²."""
+    head = (
+        "GPS Time, Device Time, Longitude, Speed (OBD)(km/h), Acceleration Sensor(X axis)(g),"
+        " Engine RPM(rpm)\n"
+    )
+    rows = []
+    for k in range(200):
+        ms = (37 * k) % 100  # stamps jitter by up to 0.1 s
+        stamp = f"25-Nov-2026 10:{k // 60:02d}:{k % 60:02d}.{ms:03d}"
+        speed = "-" if k % 17 == 5 else f"{36 + 0.36 * (k + ms / 1000):.4f}"
+        acc = "" if k % 23 == 7 else f"{0.1 / 9.80665:.6f}"
+        rows.append(f"-, {stamp}, -, {speed}, {acc}, -")
+    path = tmp_path / "torque.csv"
+    path.write_text(head + "\n".join(rows) + "\n")
+    return path

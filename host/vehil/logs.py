@@ -321,7 +321,9 @@ def trace_from_log(
             assert cm.value is not None
             x = np.full(n_samples, cm.value)
             values[key], how = _convert(log.path, cm, cm.unit or want, x, want, role, T)
-            rows.append({"input": key, "source": f"constant {cm.value:g}", "unit": how})
+            rows.append(
+                {"input": key, "source": f"constant {cm.value:g}", "unit": how if cm.unit else want}
+            )
             continue
         c, tm = chans[cm.column], timing[cm.column]
         x, resampled = on_grid[cm.column]

@@ -71,24 +71,6 @@ def test_bad_logs_are_refused_with_file_and_place(tmp_path, text, message) -> No
     assert str(path) in str(exc.value)
 
 
-TORQUE = (
-    "GPS Time, Device Time, Longitude, Speed (OBD)(km/h), Acceleration Sensor(X axis)(g),"
-    " Engine RPM(rpm)\n"
-)
-
-
-def torque_log(tmp_path, n: int = 200) -> Path:  # noqa: ANN001
-    """An OBD app's export: text time stamps at 1 Hz, `-` cells, km/h and g headers."""
-    rows = []
-    for k in range(n):
-        ms = (37 * k) % 100  # stamps jitter by up to 0.1 s
-        stamp = f"25-Nov-2026 10:{k // 60:02d}:{k % 60:02d}.{ms:03d}"
-        speed = "-" if k % 17 == 5 else f"{36 + 0.36 * (k + ms / 1000):.4f}"  # 10 m/s + 0.1 t
-        acc = "" if k % 23 == 7 else f"{0.1 / 9.80665:.6f}"
-        rows.append(f"-, {stamp}, -, {speed}, {acc}, -")
-    return csv(tmp_path, TORQUE + "\n".join(rows) + "\n", "torque.csv")
-
-
 def acc_columns(**over) -> dict:  # noqa: ANN003
     cols = {
         "a_m": "Acceleration Sensor(X axis)",
@@ -99,9 +81,9 @@ def acc_columns(**over) -> dict:  # noqa: ANN003
     return {**cols, **over}
 
 
-def test_an_obd_app_export_runs_with_its_units_converted(tmp_path) -> None:  # noqa: ANN001
+def test_an_obd_app_export_runs_with_its_units_converted(torque_log) -> None:  # noqa: ANN001
     source = log(
-        torque_log(tmp_path),
+        torque_log,
         time="Device Time",
         time_format="%d-%b-%Y %H:%M:%S.%f",
         columns=acc_columns(),
