@@ -1,12 +1,19 @@
 """Seed 003's C (conditioning + ESO/KF-UI + controller) against the float64 references, and
 the closed loop through the native board."""
 
+import dataclasses
+
+import numpy as np
 import pytest
 
+from vehil import runner, scenario
 from vehil.boards import open_board
 from vehil.errors import BoardError
 from vehil.estimators import eso, kfui
 from vehil.papers.eso import U_MAX, board_loop
+from vehil.paths import PROJECT_ROOT
+
+SCENARIOS = PROJECT_ROOT / "scenarios" / "eso"
 
 
 @pytest.mark.parametrize(
@@ -56,3 +63,28 @@ def test_an_out_of_range_parameter_is_refused_with_its_index(built, spec, mode, 
     with open_board("native") as link, pytest.raises(BoardError, match="BAD_PARAM") as exc:
         link.configure(spec.name, mode, spec.encode_params(values, mode))
     assert exc.value.detail == [p.name for p in spec.params].index(name)
+
+
+def test_fixed_point_recovers_once_its_input_is_back_in_range(built) -> None:  # noqa: ANN001
+    """Two samples of -1,500 m/s² on the wheel's accelerometer, past the high-pass's Q21
+    (±1,024), in the hard-bumps drive: the float64 reference's road estimate runs to ~980 m,
+    past every Q format, and FIXED saturates. Nothing latches: the flags stop once the
+    reference is back in range, and FIXED follows it again within the scenario's tolerances."""
+    sc = dataclasses.replace(scenario.load(SCENARIOS / "hard-bumps-eso-fixed.toml"), duration=40.0)
+    spec = sc.estimator
+    u = runner.prepare(sc).inputs.copy()
+    u[300:302, 1] = -1500.0
+    reference = spec.reference(sc.params)
+    ref = np.array([reference.step(x) for x in u])
+    with open_board("native") as link:
+        link.configure(spec.name, "FIXED", spec.encode_params(spec.param_values(sc.params), "FIXED"))
+        requests = (("SAMPLE", {"inputs": spec.encode_inputs(x, "FIXED")}) for x in u)
+        replies = [r.fields() for r in link.pipeline(requests)]
+    out = np.array([spec.decode_outputs(r["outputs"], "FIXED") for r in replies])
+    saturated = np.array([r["status"] & 0x01 for r in replies]) != 0
+    assert not saturated[:300].any() and saturated[300:310].all()
+    assert not saturated[-2000:].any()  # the last 20 s
+    for i, s in enumerate(spec.outputs):
+        tol = sc.tolerances[s.name].abs
+        assert np.abs(out[:300, i] - ref[:300, i]).max() <= tol, s.name
+        assert np.abs(out[-100:, i] - ref[-100:, i]).max() <= tol, s.name  # the last second
