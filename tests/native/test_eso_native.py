@@ -77,7 +77,8 @@ def test_fixed_point_recovers_once_its_input_is_back_in_range(built) -> None:  #
     reference = spec.reference(sc.params)
     ref = np.array([reference.step(x) for x in u])
     with open_board("native") as link:
-        link.configure(spec.name, "FIXED", spec.encode_params(spec.param_values(sc.params), "FIXED"))
+        params = spec.encode_params(spec.param_values(sc.params), "FIXED")
+        link.configure(spec.name, "FIXED", params)
         requests = (("SAMPLE", {"inputs": spec.encode_inputs(x, "FIXED")}) for x in u)
         replies = [r.fields() for r in link.pipeline(requests)]
     out = np.array([spec.decode_outputs(r["outputs"], "FIXED") for r in replies])
