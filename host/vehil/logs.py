@@ -62,7 +62,8 @@ def read_mdf4(path: Path, channels: list[str]) -> Columns:
                 sig = mdf.get(name)
             except Exception:
                 known = sorted(mdf.channels_db)[:20]
-                bus = " (raw CAN frames: set [log] dbc)" if "CAN_DataFrame" in known else ""
+                raw = "CAN_DataFrame" in mdf.channels_db
+                bus = " (raw CAN frames: set [log] dbc and map MESSAGE.SIGNAL)" if raw else ""
                 raise LogError(
                     f"{path}: no channel {name!r}; some channels: {', '.join(known)}{bus}"
                 ) from None
@@ -174,6 +175,13 @@ def _timing(c: Channel, max_gap_s: float | None) -> _Timing:
     return _Timing(1 / step, float(np.std(d)), limit, np.flatnonzero(d > limit))
 
 
+def _gaps(c: Channel, tm: _Timing) -> str:
+    if not len(tm.gaps):
+        return f"none over {tm.limit:.3g} s"
+    longest = float(np.max(np.diff(c.t)))
+    return f"{len(tm.gaps)} over {tm.limit:.3g} s (longest {longest:.3g} s)"
+
+
 def _stretches(c: Channel, tm: _Timing) -> list[tuple[float, float]]:
     edges = [0, *(tm.gaps + 1)], [*tm.gaps, len(c.t) - 1]
     return [(c.t[a], c.t[b]) for a, b in zip(*edges, strict=True)]
@@ -194,6 +202,53 @@ def _split(
     if not pieces:
         raise LogError("the channels share no stretch without a gap")
     return max(pieces, key=lambda p: p[1] - p[0]), pieces
+
+
+def _span(
+    log: LogSource, chans: dict[str, Channel], timing: dict[str, _Timing]
+) -> tuple[tuple[float, float], list[str]]:
+    """The stretch of the log the run covers: where every channel has data (and, with
+    on_gap = "split", no gap); the channels are cut to it. Notes say what was left out."""
+    first = {n: c.t[0] for n, c in chans.items()}
+    last = {n: c.t[-1] for n, c in chans.items()}
+    starts, ends = max(first, key=first.__getitem__), min(last, key=last.__getitem__)
+    span = (first[starts], last[ends])
+    notes = []
+    if first[starts] > min(first.values()):
+        notes.append(f"the run starts where {starts} starts (t = {first[starts]:.6g} s)")
+    if last[ends] < max(last.values()):
+        notes.append(
+            f"the run ends where {ends} ends (t = {last[ends]:.6g} s; the log goes on to "
+            f"{max(last.values()):.6g} s)"
+        )
+    gaps = sorted(
+        ((n, i) for n, tm in timing.items() for i in tm.gaps), key=lambda g: chans[g[0]].t[g[1]]
+    )
+    if not gaps:
+        return span, notes
+    n, i = gaps[0]
+    c, tm = chans[n], timing[n]
+    if log.on_gap == "refuse":
+        raise LogError(
+            f"{log.path}: {c.place(i + 1)}: no value for {c.t[i + 1] - c.t[i]:.3g} s "
+            f"(t = {c.t[i]:.6g} to {c.t[i + 1]:.6g} s), past the {tm.limit:.3g} s a gap may "
+            f"span ({len(gaps)} such gaps): set [log] max_gap_s above it to bridge it by a "
+            'straight line, or on_gap = "split" to run the longest stretch without one'
+        )
+    try:
+        span, pieces = _split(chans, timing)
+    except LogError as exc:
+        raise LogError(f"{log.path}: {exc}") from None
+    for c in chans.values():  # the stretch alone: no filter runs across a gap
+        inside = (c.t >= span[0]) & (c.t <= span[1])
+        c.t, c.x = c.t[inside], c.x[inside]
+        c.lines = c.lines[inside] if c.lines is not None else None
+    shown = ", ".join(f"{a:.6g}-{b:.6g} s" for a, b in pieces)
+    notes.append(
+        f"split at {len(gaps)} gaps longer than max_gap_s: stretches {shown}; "
+        f"running {span[0]:.6g}-{span[1]:.6g} s"
+    )
+    return span, notes
 
 
 def _on_grid(c: Channel, tm: _Timing, grid: np.ndarray, T: float) -> tuple[np.ndarray, str]:
@@ -274,42 +329,10 @@ def trace_from_log(
     names = sorted({cm.column for cm in all_maps.values() if cm.column is not None})
     chans = {n: clean(c, log.path) for n, c in read_channels(log, names).items()}
     timing = {n: _timing(c, log.max_gap_s) for n, c in chans.items()}
-    notes = []
-    span = (max(c.t[0] for c in chans.values()), min(c.t[-1] for c in chans.values()))
-    gaps = [(n, i) for n, tm in timing.items() for i in tm.gaps]
-    if gaps:
-        n, i = gaps[0]
-        c, tm = chans[n], timing[n]
-        if log.on_gap == "refuse":
-            raise LogError(
-                f"{log.path}: {c.place(i + 1)}: no value for {c.t[i + 1] - c.t[i]:.3g} s "
-                f"(t = {c.t[i]:.6g} to {c.t[i + 1]:.6g} s), past the {tm.limit:.3g} s a gap may "
-                f"span ({len(gaps)} such gaps): set [log] max_gap_s above it to bridge it by a "
-                'straight line, or on_gap = "split" to run the longest stretch without one'
-            )
-        try:
-            span, pieces = _split(chans, timing)
-        except LogError as exc:
-            raise LogError(f"{log.path}: {exc}") from None
-        shown = ", ".join(f"{a:.6g}-{b:.6g} s" for a, b in pieces)
-        notes.append(
-            f"split at {len(gaps)} gaps longer than max_gap_s: stretches {shown}; "
-            f"running {span[0]:.6g}-{span[1]:.6g} s"
-        )
-    if span[1] - span[0] < T:
-        listed = ", ".join(f"{n} {c.t[0]:.6g}-{c.t[-1]:.6g} s" for n, c in chans.items())
-        raise LogError(f"{log.path}: the channels do not overlap in time: {listed}")
-    if chans:
-        first = {n: c.t[0] for n, c in chans.items()}
-        last = {n: c.t[-1] for n, c in chans.items()}
-        starts, ends = max(first, key=first.__getitem__), min(last, key=last.__getitem__)
-        if first[starts] > min(first.values()):
-            notes.append(f"the run starts where {starts} starts (t = {first[starts]:.6g} s)")
-        if last[ends] < max(last.values()):
-            notes.append(
-                f"the run ends where {ends} ends (t = {last[ends]:.6g} s; the log goes on to "
-                f"{max(last.values()):.6g} s)"
-            )
+    if not chans:
+        raise LogError(f"{log.path}: [log.columns] maps no logged channel: map one at least")
+    span, notes = _span(log, chans, timing)
+    timing = {n: _timing(c, log.max_gap_s) for n, c in chans.items()}  # of the stretch run
     n_samples = int(math.floor(min(span[1] - span[0], duration) / T + 1e-9)) + 1
     grid = span[0] + np.arange(n_samples) * T
     on_grid = {n: _on_grid(c, timing[n], grid, T) for n, c in chans.items()}
@@ -335,7 +358,7 @@ def trace_from_log(
                 "unit": how,
                 "rate": f"{tm.rate:.4g} Hz",
                 "jitter": f"{tm.jitter * 1e3:.3g} ms",
-                "gaps": f"{len(tm.gaps)} > {tm.limit:.3g} s",
+                "gaps": _gaps(c, tm),
                 "missing": str(c.missing),
                 "duplicates": c.merged or "0",
                 "logged": f"{c.t[0]:.6g}-{c.t[-1]:.6g} s",

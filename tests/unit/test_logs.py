@@ -126,8 +126,10 @@ def test_a_gap_is_refused_where_it_is_or_split_off(tmp_path) -> None:  # noqa: A
     split = trace_from_log(log(path, on_gap="split"), SPEC, 0.1, math.inf)
     assert split.t[-1] == pytest.approx(19.9) and split.signals["y"][0] == 0.0
     assert "split at 1 gaps longer than max_gap_s: stretches 0-19.9 s, 30-44.9 s" in split.notes[0]
+    assert split.timing[0]["gaps"] == "none over 0.5 s"
     bridged = trace_from_log(log(path, max_gap_s=11.0), SPEC, 0.1, math.inf)
     assert bridged.t[-1] == pytest.approx(44.9)
+    assert bridged.timing[0]["gaps"] == "none over 11 s"
 
 
 def test_duplicated_stamps_are_merged_and_the_first_is_named(tmp_path) -> None:  # noqa: ANN001
@@ -291,3 +293,19 @@ def test_raw_can_is_decoded_with_the_dbc(tmp_path, suffix, fmt) -> None:  # noqa
     bad = log(path, format=fmt, dbc=dbc, columns={**cols, "a_m": "ACCEL.ACCEL_Y"})
     with pytest.raises(LogError, match=r"'ACCEL.ACCEL_Y' is not a MESSAGE.SIGNAL of car.dbc"):
         trace_from_log(bad, ACC, 0.02, math.inf)
+
+
+def test_one_drive_through_csv_and_through_mdf4_gives_the_same_inputs(tmp_path) -> None:  # noqa: ANN001
+    from asammdf import MDF, Signal
+
+    rng = np.random.default_rng(3)
+    t = np.cumsum(rng.uniform(0.008, 0.016, 2000))  # ~83 Hz, in bursts
+    x = np.sin(t) + rng.normal(0, 0.1, len(t))
+    text = "t [s],speed [1]\n" + "\n".join(f"{a:.17g},{b:.17g}" for a, b in zip(t, x, strict=True))
+    path = csv(tmp_path, text)
+    mdf = MDF(version="4.10")
+    mdf.append([Signal(x, t, name="speed", unit="1")])
+    mdf.save(tmp_path / "drive.mf4", overwrite=True)
+    a = trace_from_log(log(path), SPEC, 0.1, math.inf)
+    b = trace_from_log(log(tmp_path / "drive.mf4", format="mdf4"), SPEC, 0.1, math.inf)
+    np.testing.assert_array_equal(a.signals["y"], b.signals["y"])

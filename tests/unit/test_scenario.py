@@ -121,3 +121,52 @@ def test_a_tolerance_from_a_time_on_leaves_the_start_unchecked() -> None:
     board[7, 0] = 5.0  # at 0.07 s
     verdict = compare.evaluate(series).outputs["y"].reference
     assert verdict.passed is False and verdict.outside_tolerance == 1
+
+
+@pytest.mark.parametrize(
+    ("log", "message"),
+    [
+        ({"path": "d.blf"}, r"log.dbc: a blf log holds raw CAN frames: name the DBC"),
+        (
+            {"path": "d.csv", "preset": "excel"},
+            r"log.preset: 'excel' is not one of torque, asammdf",
+        ),
+        (
+            {"path": "d.csv", "on_gap": "bridge"},
+            r"log.on_gap: 'bridge' is not one of refuse, split",
+        ),
+        ({"path": "d.csv", "columns": {"y": True}}, r"log.columns.y: must be a column name"),
+        ({"path": "d.csv", "columns": {"y": {"unit": "m"}}}, r"give exactly one of column and"),
+        ({"path": "d.csv", "columns": {"y": {"column": "a", "gain": 2}}}, r"y.gain: unknown key"),
+    ],
+)
+def test_log_mistakes_are_named(tmp_path, log, message) -> None:  # noqa: ANN001
+    data = base()
+    del data["plant"]
+    data["log"] = log
+    with pytest.raises(ScenarioError, match=message):
+        scenario.parse(data, "x.toml", tmp_path / "x.toml")
+
+
+def test_a_log_preset_a_dbc_and_derived_columns_are_read(tmp_path) -> None:  # noqa: ANN001
+    data = base()
+    del data["plant"]
+    data["log"] = {
+        "path": "drive.csv",
+        "preset": "torque",
+        "max_gap_s": 2.0,
+        "columns": {"y": {"column": "Speed (OBD)", "unit": "km/h", "scale": 2}},
+    }
+    log = scenario.parse(data, "x.toml", tmp_path / "x.toml").log
+    assert log is not None and (log.format, log.time) == ("csv", "Device Time")
+    assert log.time_format == "%d-%b-%Y %H:%M:%S.%f" and log.max_gap_s == 2.0
+    assert log.columns["y"] == scenario.ColumnMap(column="Speed (OBD)", unit="km/h", scale=2.0)
+    data["log"] = {"path": "drive.asc", "dbc": "car.dbc", "columns": {"y": "d/dt WHEELS.FL"}}
+    log = scenario.parse(data, "x.toml", tmp_path / "x.toml").log
+    assert log is not None and log.format == "asc" and log.dbc == tmp_path / "car.dbc"
+    assert scenario.ColumnMap.of(log.columns["y"]) == scenario.ColumnMap(
+        column="WHEELS.FL", derivative=True
+    )
+    data["log"]["columns"] = {"y": 0}
+    log = scenario.parse(data, "x.toml", tmp_path / "x.toml").log
+    assert log is not None and log.columns["y"] == scenario.ColumnMap(value=0.0)
