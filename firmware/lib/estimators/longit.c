@@ -147,8 +147,14 @@ void longit_outputs_q(const longit_q_t *l, int32_t m, uint8_t q_m, int32_t cda, 
     } else {
         *status |= STATUS_CLAMPED;
     }
+    longit_outputs_ratio_q(l, fx_rescale(m, q_m, 16, status), cda, ratio, out, status);
+}
+
+void longit_outputs_ratio_q(const longit_q_t *l, int32_t m, int32_t cda, int32_t ratio,
+                            uint8_t *out, uint8_t *status)
+{
     int32_t grade = fx_sub(fx_asin_q30(ratio, status), l->eps, status); /* clamps |ratio| > 1 */
-    put_i32(out, fx_rescale(m, q_m, 16, status));
+    put_i32(out, m);
     put_i32(out + 4, cda);
     put_i32(out + 8, fx_mul(grade, 30, 961263669 /* 180/π, Q24 */, 24, 20, status));
 }

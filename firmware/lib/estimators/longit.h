@@ -79,4 +79,8 @@ uint8_t longit_outputs(const longit_t *l, float m, float cda, float m_sin, uint8
 void longit_outputs_q(const longit_q_t *l, int32_t m, uint8_t q_m, int32_t cda, int32_t m_sin,
                       uint8_t q_ms, uint8_t *out, uint8_t *status);
 
+/* The same from m̂ Q16, Ĉ_dA_f Q16 and θ3/θ1 in Q30 (the caller flags m̂ <= 0). */
+void longit_outputs_ratio_q(const longit_q_t *l, int32_t m, int32_t cda, int32_t ratio,
+                            uint8_t *out, uint8_t *status);
+
 #endif

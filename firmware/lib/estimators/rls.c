@@ -36,14 +36,25 @@ static uint8_t bit_length(uint32_t x)
 
 static uint32_t magnitude(int32_t x) { return x < 0 ? (uint32_t)0 - (uint32_t)x : (uint32_t)x; }
 
-/* v 2^n: rounded half up when n < 0, saturated (flagged) when it does not fit; whole
- * bytes first, as the AVR shifts an int32 one bit at a time. */
+/* v >> d (arithmetic), whole bytes first: the AVR shifts an int32 one bit at a time. */
+static int32_t sar(int32_t v, uint8_t d)
+{
+    for (; d >= 8u; d -= 8u) {
+        v >>= 8;
+    }
+    return v >> d;
+}
+
+/* v 2^n: rounded half up when n < 0, saturated (flagged) when it does not fit. */
 static int32_t shift(int32_t v, int16_t n, uint8_t *st)
 {
     if (n >= 0) {
-        if (v != 0 && (n > 30 || v > (INT32_MAX >> n) || v < (INT32_MIN >> n))) {
-            *st |= STATUS_SATURATED;
-            return v > 0 ? INT32_MAX : INT32_MIN;
+        if (n > 30 || sar(v, (uint8_t)(31 - n)) != (v < 0 ? -1 : 0)) {
+            if (v != 0) {
+                *st |= STATUS_SATURATED;
+                return v > 0 ? INT32_MAX : INT32_MIN;
+            }
+            return 0;
         }
         uint32_t u = (uint32_t)v;
         for (; n >= 8; n -= 8) {
@@ -54,11 +65,7 @@ static int32_t shift(int32_t v, int16_t n, uint8_t *st)
     if (n < -31) {
         return 0;
     }
-    uint8_t d = (uint8_t)(-n - 1); /* to the rounding bit, then one more */
-    for (; d >= 8u; d -= 8u) {
-        v >>= 8;
-    }
-    v >>= d;
+    v = sar(v, (uint8_t)(-n - 1)); /* to the rounding bit, then one more */
     return (v >> 1) + (v & 1);
 }
 
@@ -82,15 +89,32 @@ static int32_t mul_shr(int32_t a, int32_t b, int16_t n, uint8_t *st)
     return fx_mul_shr_c(a, b, (uint8_t)n, st);
 }
 
-/* 1 / s for s in [1/2, 1) (Q30), in Q29: a linear first guess, 48/17 - 32/17 s (within
- * 1/17), and three Newton steps y (2 - s y), each squaring the error. */
+/* 1 / s for s in [1/2, 1) (Q30), in Q29: 1/s at s = 1/2 + i/32 (Q29), interpolated
+ * (within 0.2 %), then two Newton steps y (2 - s y), each squaring the error. */
+static const int32_t recip_table[17] = {
+    1073741824, 1010580540, 954437177, 904203641, 858993459, 818089009,
+    780903145,  746950834,  715827883, 687194767, 660764199, 636291451,
+    613566757,  592409282,  572662306, 554189329, 536870912,
+};
+
 static int32_t reciprocal(int32_t s, uint8_t *st)
 {
-    int32_t y = 1515870810 - fx_mul_shr(s, 2021161080, 31, st);
-    for (uint8_t i = 0; i < 3u; i++) {
+    uint32_t x = (uint32_t)s - ((uint32_t)1 << 29);
+    uint8_t i = (uint8_t)(x >> 25);
+    int32_t y = recip_table[i] + fx_mul_shr(recip_table[i + 1u] - recip_table[i],
+                                            (int32_t)(x & (((uint32_t)1 << 25) - 1u)), 25, st);
+    for (uint8_t k = 0; k < 2u; k++) {
         y = fx_mul_shr(y, ONE_Q30 - fx_mul_shr(s, y, 30, st), 29, st);
     }
     return y;
+}
+
+/* m sin / m in Q30 for m > 0 (both Q16): m as m_n 2^(n - 16), m_n in [1/2, 1). */
+static int32_t ratio_q30(int32_t m_sin, int32_t m, uint8_t *st)
+{
+    uint8_t n = bit_length((uint32_t)m);
+    int32_t r = reciprocal(shift(m, (int16_t)(30 - n), st), st);
+    return mul_shr(m_sin, r, (int16_t)(n - 1), st);
 }
 
 /* A positive value v 2^-q as P̃ (Q30, in [1/4, 1)) and an exponent e, v = P̃ 2^(2e); 0 stays
@@ -124,6 +148,7 @@ static void reset_covariance(rls_state_t *s)
             s->u.q.P[at[i][i]] = s->u.q.p0[i];
             s->u.q.e[i] = s->u.q.e_p0[i];
         }
+        s->u.q.l = s->u.q.lambda;
     }
 }
 
@@ -146,7 +171,6 @@ static void rls_reset(void *state)
 /* FIXED's constants from the Q parameters with integer arithmetic only (longit_q_t). */
 static void configure_q(rls_state_t *s, const uint8_t *params)
 {
-    uint8_t st = 0;
     longit_configure_q(&s->u.q.shared, params, N_OWN);
     int64_t p_cap = param_q(params, P_CAP); /* Q0 */
     const int64_t p0[3] = {param_q(params, P_P0_M), param_q(params, P_P0_CDA),
@@ -157,10 +181,6 @@ static void configure_q(rls_state_t *s, const uint8_t *params)
         to_scaled(p0[i] * p_cap, p0_q[i], &s->u.q.cap[i], &s->u.q.e_cap[i]);
     }
     s->u.q.lambda = param_q(params, P_LAMBDA);
-    s->u.q.inv_lambda = fx_div(ONE_Q30, 30, s->u.q.lambda, 30, 29, &st); /* λ >= 1/2 */
-    for (uint8_t i = 0; i < 3u; i++) {
-        s->u.q.cap[i] = fx_mul_shr(s->u.q.cap[i], s->u.q.lambda, 30, &st); /* λ cap */
-    }
 }
 
 static uint8_t rls_configure(void *state, uint8_t mode, const uint8_t *params)
@@ -249,21 +269,22 @@ static uint8_t renormalise(int32_t *P, int8_t *e, uint8_t *st)
     return 1;
 }
 
-/* Whether P_ii / λ would pass the cap, as P_ii > λ cap, both as a mantissa in [1/8, 1)
- * (P̃_ii renormalised) and 2^(2e). */
-static uint8_t past_cap(const rls_state_t *s, uint8_t i)
+/* Whether P_ii / λ = P̃_ii 4^e_i / l would pass the cap, P̃_ii renormalised; only when the
+ * exponents are close is l multiplied in. */
+static uint8_t past_cap(const rls_state_t *s, uint8_t i, uint8_t *st)
 {
-    int32_t p = s->u.q.P[at[i][i]], cap = s->u.q.cap[i];
     int8_t k = (int8_t)(s->u.q.e[i] - s->u.q.e_cap[i]);
-    if (k != 0) {
-        return k > 0 ? (k > 1 || p > (cap >> 2)) : (k == -1 && (p >> 2) > cap);
+    if (k < -1 || k > 1) {
+        return k > 1; /* P̃ 16 >= 4 > cap l, or P̃ / 16 < 1/16 <= cap l */
     }
-    return p > cap;
+    int32_t p = s->u.q.P[at[i][i]];
+    int32_t cap = fx_mul_shr(s->u.q.cap[i], s->u.q.l, 30, st); /* in [1/16, 1) */
+    return k == 0 ? p > cap : (k > 0 ? p > (cap >> 2) : (p >> 2) > cap);
 }
 
 /* Note §3's update with P as P̃ 2^(e_i + e_j) (rls.h): u = 2^e ψ as ũ 2^top (Q30, its
  * largest entry in [1/2, 1)), w̃ = P̃ ũ, so Pψ = 2^(e + top) w̃ and λ + ψᵀPψ =
- * 2^(2 top) s, s = λ 2^(-2 top) + ũᵀw̃, held as s_m 2^g; the gain is
+ * 2^(2 top) s, s = l 2^(-2 top) + ũᵀw̃, held as s_m 2^g; the gain is
  * k = 2^(e - top) w̃ / s, and P - Pψ(Pψ)ᵀ/d is P̃ - w̃ w̃ᵀ / s in P̃'s units. */
 static void update_q(rls_state_t *s, const int32_t *x, uint8_t *status)
 {
@@ -303,14 +324,14 @@ static void update_q(rls_state_t *s, const int32_t *x, uint8_t *status)
         q += fx_mul_shr(u[i], w[i], 33, &st);
     }
     q = q > 0 ? q : 0;
-    /* s = λ 2^(-2 top) + q 2^gw as s_m 2^g, s_m in [1/4, 1) (Q30) as each term is below
+    /* s = l 2^(-2 top) + q 2^gw as s_m 2^g, s_m in [1/8, 1) (Q30) as each term is below
      * 2^(g-1), then in [1/2, 1). */
     int16_t g = (int16_t)(-2 * top);
     int16_t gq = (int16_t)(bit_length((uint32_t)q) - 27 + gw);
     g = (int16_t)((q != 0 && gq > g ? gq : g) + 1);
-    int32_t s_m = shift(s->u.q.lambda, (int16_t)(-2 * top - g), &st) +
+    int32_t s_m = shift(s->u.q.l, (int16_t)(-2 * top - g), &st) +
                   shift(q, (int16_t)(3 - g + gw), &st);
-    if (s_m < (ONE_Q30 >> 1)) { /* into [1/2, 1) */
+    while (s_m < (ONE_Q30 >> 1)) { /* from [1/8, 1) into [1/2, 1) */
         s_m *= 2;
         g--;
     }
@@ -341,13 +362,16 @@ static void update_q(rls_state_t *s, const int32_t *x, uint8_t *status)
         st |= STATUS_SINGULAR;
     }
     for (uint8_t i = 0; i < 3u; i++) {
-        forget = past_cap(s, i) ? 0u : forget; /* windup guard */
+        forget = past_cap(s, i, &st) ? 0u : forget; /* windup guard */
     }
-    if (forget) {
-        for (uint8_t i = 0; i < 6u; i++) {
-            P[i] = fx_mul_shr(P[i], s->u.q.inv_lambda, 29, &st);
+    if (forget) { /* P / λ as l λ */
+        s->u.q.l = fx_mul_shr(s->u.q.l, s->u.q.lambda, 30, &st);
+        if (s->u.q.l < (ONE_Q30 >> 2)) { /* l 4 and every e_i + 1: P unchanged */
+            s->u.q.l *= 4;
+            for (uint8_t i = 0; i < 3u; i++) {
+                e[i]++;
+            }
         }
-        renormalise(P, e, &st); /* P̃_ii < 2: at most one step */
     }
     *status |= st;
 }
@@ -361,8 +385,14 @@ static uint8_t step_q(rls_state_t *s, const uint8_t *in, uint8_t *out)
     if (!(st & STATUS_CLAMPED)) { /* a sample past FIXED's bounds would teach a wrong θ */
         update_q(s, x, &st);
     }
-    longit_outputs_q(&s->u.q.shared, theta[0], theta_q[0], fx_rescale(theta[1], theta_q[1], 16, &st),
-                     theta[2], theta_q[2], out, &st);
+    int32_t ratio = 0;
+    if (theta[0] > 0) {
+        ratio = ratio_q30(theta[2], theta[0], &st);
+    } else {
+        st |= STATUS_CLAMPED;
+    }
+    longit_outputs_ratio_q(&s->u.q.shared, theta[0], fx_rescale(theta[1], theta_q[1], 16, &st),
+                           ratio, out, &st);
     return st;
 }
 

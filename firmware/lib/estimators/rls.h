@@ -4,8 +4,9 @@
  * made non-positive restarts at P(0), flagged SINGULAR.
  *
  * FIXED (docs/estimators/rls.md) keeps θ in physical units (m, m sin Q16 kg, C_dA_f Q20
- * m², the innovation Q12 N) and P in floating point made of integers: P_ij = P̃_ij
- * 2^(e_i + e_j) with P̃ Q30, its diagonal kept in [1/4, 1) by the exponents, so
+ * m², the innovation Q12 N) and P in floating point made of integers: P_ij = (λ / l)
+ * P̃_ij 2^(e_i + e_j) with P̃ Q30, its diagonal kept in [1/4, 1) by the exponents, and
+ * forgetting one multiply of the scalar l by λ; so
  * |P̃_ij| < 1 always, whatever the decades P spans (1e-7 when a direction is well
  * excited, p_cap · P(0) when it is not); the regressor, the denominator and the gains
  * get an exponent each per step. Every multiply has its shift fixed at compile time.
@@ -35,9 +36,9 @@ typedef struct {
             int32_t theta[3];          /* m Q16, C_dA_f Q20, m sin Q16 */
             int32_t P[6];              /* P̃ 00 10 11 20 21 22, Q30 */
             int8_t e[3];               /* P_ij = P̃_ij 2^(e_i + e_j) */
-            int32_t p0[3], cap[3];     /* P(0)_ii and λ p_cap P(0)_ii as P̃ (Q30) */
+            int32_t p0[3], cap[3];     /* P(0)_ii and p_cap P(0)_ii as P̃ (Q30) */
             int8_t e_p0[3], e_cap[3];  /* with these exponents */
-            int32_t lambda, inv_lambda; /* λ Q30, 1/λ Q29 */
+            int32_t lambda, l;         /* λ and l, Q30: l in [1/4, 1] */
             longit_q_t shared;
         } q;
     } u;
