@@ -5,11 +5,11 @@
  *
  * FIXED (docs/estimators/rls.md) keeps θ in physical units (m, m sin Q16 kg, C_dA_f Q20
  * m², the innovation Q12 N) and P in floating point made of integers: P_ij = (λ / l)
- * P̃_ij 2^(e_i + e_j) with P̃ Q30, its diagonal kept in [1/4, 1) by the exponents, and
- * forgetting one multiply of the scalar l by λ; so
+ * P̃_ij 2^(e_i + e_j) with P̃ Q30, its diagonal kept in [1/4, 1) by the exponents, so
  * |P̃_ij| < 1 always, whatever the decades P spans (1e-7 when a direction is well
- * excited, p_cap · P(0) when it is not); the regressor, the denominator and the gains
- * get an exponent each per step. Every multiply has its shift fixed at compile time.
+ * excited, p_cap · P(0) when it is not), and forgetting one multiply of the scalar l;
+ * the regressor, the denominator and the gains get an exponent each per step. Every
+ * multiply is fixmath's assembly kernel for its shift.
  * It needs v < 82 m/s, |v̇| < 16 m/s², |z| < 32 kN (longit.h) and takes no prefilter.
  *
  * Inputs  v [m/s] Q24, v̇ [m/s²] Q24, z [N] Q14.  Outputs m̂ [kg] Q16, Ĉ_dA_f [m²] Q16,
