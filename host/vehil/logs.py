@@ -254,10 +254,14 @@ def _span(
 def _on_grid(c: Channel, tm: _Timing, grid: np.ndarray, T: float) -> tuple[np.ndarray, str]:
     """The channel on the grid, and how it got there."""
     fs = 1 / T
-    k = np.searchsorted(c.t, grid)
-    k = np.clip(k, 0, len(c.t) - 1)
-    if np.all(np.abs(c.t[k] - grid) <= 1e-6 * T) and abs(tm.rate - fs) <= 1e-6 * fs:
-        return c.x[k], f"as logged ({tm.rate:.4g} Hz)"
+    k = np.clip(np.searchsorted(c.t, grid), 1, len(c.t) - 1)
+    k -= grid - c.t[k - 1] < c.t[k] - grid  # the nearest sample
+    off = np.abs(c.t[k] - grid)
+    if np.all(off <= 0.05 * T) and abs(tm.rate - fs) <= 0.01 * fs and len(np.unique(k)) == len(k):
+        # A regular log at the run's rate: its samples as they are, stamp jitter and all.
+        late = off.max()
+        jitter = f", stamps within {late * 1e3:.2g} ms of the grid" if late > 1e-6 * T else ""
+        return c.x[k], f"as logged ({tm.rate:.4g} Hz{jitter})"
     if tm.rate > 1.05 * fs:
         # Decimation: low-pass below the grid's Nyquist on the channel's own uniform grid.
         own = np.arange(c.t[0], c.t[-1], 1 / tm.rate)
@@ -307,27 +311,55 @@ def _convert(
     return y, ", ".join(how) or f"{unit} (as logged)"
 
 
+def _mapped(
+    log: LogSource, spec: EstimatorSpec
+) -> tuple[dict[str, ColumnMap], dict[str, ColumnMap], dict[str, Channel]]:
+    """The inputs' and truths' mappings, and the cleaned channels they read."""
+    maps = {s.name: ColumnMap.of(log.columns.get(s.name, s.name)) for s in spec.inputs}
+    truths = dict(log.truth)
+    if log.format == "vehil":
+        # A recording carries the estimator's signals by name: a log's mapping does not apply.
+        maps = {s.name: ColumnMap(column=s.name) for s in spec.inputs}
+        recorded = read_recording(log.path).values
+        truths = {s.name: f"truth.{s.name}" for s in spec.outputs if f"truth.{s.name}" in recorded}
+    truth_maps = {f"truth.{n}": ColumnMap.of(c) for n, c in truths.items()}
+    names = sorted({m.column for m in (*maps.values(), *truth_maps.values()) if m.column})
+    chans = {n: clean(c, log.path) for n, c in read_channels(log, names).items()}
+    return maps, truth_maps, chans
+
+
+def own_step(log: LogSource, spec: EstimatorSpec) -> float:
+    """The log's own sample time, where every mapped channel is logged at one regular rate
+    (steps within 1 % of each other): a run then takes the samples as logged."""
+    _, _, chans = _mapped(log, spec)
+    steps = {n: np.diff(c.t) for n, c in chans.items()}
+    if not steps:
+        raise LogError(f"{log.path}: [log.columns] maps no logged channel")
+    mean = {n: (c.t[-1] - c.t[0]) / (len(c.t) - 1) for n, c in chans.items()}
+    T = float(np.median(list(mean.values())))
+    regular = all(np.all(np.abs(d - T) <= 0.01 * T) for d in steps.values())
+    if not regular:
+        shown = ", ".join(
+            f"{n} {1 / mean[n]:.4g} Hz (steps {d.min() * 1e3:.3g}-{d.max() * 1e3:.3g} ms)"
+            for n, d in steps.items()
+        )
+        raise LogError(
+            f"{log.path}: the log has no one regular rate: {shown}; give a number of seconds"
+        )
+    return T
+
+
 def trace_from_log(
     log: LogSource, spec: EstimatorSpec, sample_time: float, duration: float
 ) -> LogTrace:
     T = sample_time
     inputs = {s.name: s for s in spec.inputs}
-    outputs = {s.name: s for s in spec.outputs}
-    maps = {n: ColumnMap.of(log.columns.get(n, n)) for n in inputs}
-    truths = dict(log.truth)
-    if log.format == "vehil":
-        # A recording carries the estimator's signals by name: a log's mapping does not apply.
-        maps = {n: ColumnMap(column=n) for n in inputs}
-        recorded = read_recording(log.path).values
-        truths = {n: f"truth.{n}" for n in outputs if f"truth.{n}" in recorded}
-    truth_maps = {f"truth.{n}": ColumnMap.of(c) for n, c in truths.items()}
+    maps, truth_maps, chans = _mapped(log, spec)
     all_maps = {**maps, **truth_maps}
     wants = {
         **{n: s.unit for n, s in inputs.items()},
-        **{f"truth.{n}": s.unit for n, s in outputs.items()},
+        **{f"truth.{s.name}": s.unit for s in spec.outputs},
     }
-    names = sorted({cm.column for cm in all_maps.values() if cm.column is not None})
-    chans = {n: clean(c, log.path) for n, c in read_channels(log, names).items()}
     timing = {n: _timing(c, log.max_gap_s) for n, c in chans.items()}
     if not chans:
         raise LogError(f"{log.path}: [log.columns] maps no logged channel: map one at least")

@@ -271,12 +271,25 @@ def _log_source(
     )
 
 
+def _own_step(sc: _Checker, top: _Checker, path: Path | None, spec: EstimatorSpec) -> float:
+    """sample_time = "log": the log's own regular step (its time-step parameters follow)."""
+    from vehil.logs import own_step  # the log is read here: only this setting needs it
+
+    if "log" not in top.table:
+        raise sc.fail("sample_time", '"log" takes the step of a [log]; a plant needs seconds')
+    inputs = tuple(s.name for s in spec.inputs)
+    outputs = tuple(s.name for s in spec.outputs)
+    try:
+        return own_step(_log_source(top.sub("log"), path, inputs, outputs), spec)
+    except VehilError as exc:
+        raise sc.fail("sample_time", f'"log": {exc}') from None
+
+
 def parse(data: dict[str, Any], where: str, path: Path | None = None) -> Scenario:
     top = _Checker(where, data, "")
     top.only("scenario", "plant", "log", "estimator", "signals", "tolerance")
     sc = top.sub("scenario")
     sc.only("name", "title", "duration", "sample_time", "seed", "paper", "figures", "closed_loop")
-    sample_time = sc.number("sample_time", lo=1e-5, hi=10.0)
     est_t = top.sub("estimator")
     est_t.only("name", "mode", "params")
     known = estimators.estimators()
@@ -286,6 +299,12 @@ def parse(data: dict[str, Any], where: str, path: Path | None = None) -> Scenari
     mode = est_t.text("mode", "F32", choices=MODES)
     if mode not in spec.modes:
         raise est_t.fail("mode", f"{spec.name} runs in {', '.join(spec.modes)} only")
+    inputs = tuple(s.name for s in spec.inputs)
+    outputs = tuple(s.name for s in spec.outputs)
+    if sc.table.get("sample_time") == "log":
+        sample_time = _own_step(sc, top, path, spec)
+    else:
+        sample_time = sc.number("sample_time", lo=1e-5, hi=10.0)
     given = _numbers(est_t.sub("params"))
     if "T" in {p.name for p in spec.params}:
         given.setdefault("T", sample_time)
@@ -296,8 +315,6 @@ def parse(data: dict[str, Any], where: str, path: Path | None = None) -> Scenari
 
     if ("plant" in data) == ("log" in data):
         raise ScenarioError(f"{where}: give exactly one of [plant] and [log]")
-    inputs = tuple(s.name for s in spec.inputs)
-    outputs = tuple(s.name for s in spec.outputs)
     plant_name, log = None, None
     plant_params: dict[str, Any] = {}
     if "plant" in data:

@@ -2,6 +2,7 @@
 
 import math
 
+import numpy as np
 import pytest
 
 from vehil import scenario
@@ -170,3 +171,27 @@ def test_a_log_preset_a_dbc_and_derived_columns_are_read(tmp_path) -> None:  # n
     data["log"]["columns"] = {"y": 0}
     log = scenario.parse(data, "x.toml", tmp_path / "x.toml").log
     assert log is not None and log.columns["y"] == scenario.ColumnMap(value=0.0)
+
+
+def test_a_regular_log_runs_at_its_own_rate(tmp_path) -> None:  # noqa: ANN001
+    from vehil.logs import trace_from_log
+
+    rng = np.random.default_rng(2)
+    t = np.arange(300) * 0.02 + rng.uniform(-1e-4, 1e-4, 300)  # 50 Hz, stamps jitter 0.1 ms
+    rows = "\n".join(f"{a:.6f},{k}" for k, a in enumerate(t))
+    (tmp_path / "drive.csv").write_text("t [s],speed [1]\n" + rows)
+    data = base()
+    del data["plant"]
+    data["scenario"].update(sample_time="log")
+    data["scenario"].pop("duration")
+    data["log"] = {"path": "drive.csv", "columns": {"y": "speed"}}
+    sc = scenario.parse(data, "x.toml", tmp_path / "x.toml")
+    assert sc.sample_time == pytest.approx(0.02, rel=1e-4)
+    assert sc.log is not None
+    trace = trace_from_log(sc.log, sc.estimator, sc.sample_time, sc.duration)
+    np.testing.assert_array_equal(trace.signals["y"], np.arange(300))
+    how = trace.timing[0]["resampling"]
+    assert how.startswith("as logged (49.99 Hz, stamps within 0.1") and how.endswith("grid)")
+    (tmp_path / "drive.csv").write_text("t [s],speed [1]\n0,0\n0.02,1\n0.05,2\n0.07,3\n")
+    with pytest.raises(ScenarioError, match=r'sample_time: "log": .* the log has no one regular'):
+        scenario.parse(data, "x.toml", tmp_path / "x.toml")
