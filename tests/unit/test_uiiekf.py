@@ -46,3 +46,16 @@ def test_the_printed_iteration_shrinks_p_faster_than_one_pass() -> None:
         once.step(x)
     seen = [0, -2, -1]  # v_x and the wheels (v_y and r are not seen in a straight line)
     assert np.all(np.diag(printed.P)[seen] < np.diag(once.P)[seen])  # z applied five times
+
+
+def test_the_five_state_filter_is_the_three_state_one_in_a_straight_line() -> None:
+    """δ = 0 decouples v_y and r from the wheels exactly, so they never leave zero (the
+    board's C relies on it: docs/estimators/uiiekf.md)."""
+    _, u = drive()
+    five = uiiekf.Uiiekf(uiiekf.SPEC.param_values({"T": 0.005}))
+    three = uiiekf.Uiiekf(uiiekf.SPEC.param_values({"T": 0.005, "n_states": 3}))
+    for x in u:
+        v5, v3 = five.step(x)[0], three.step(x)[0]
+        assert five.x is not None and five.x[1] == 0.0 and five.x[2] == 0.0
+        assert abs(v5 - v3) < 1e-9
+    assert np.all(five.P[1:3, [0, 3, 4]] == 0.0)

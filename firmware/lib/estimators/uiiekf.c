@@ -28,102 +28,61 @@ static const param_range_t ranges[N_PARAMS] = {
 #define NIS_WINDOW 1.0f /* s */
 #define V_MIN 1.0f      /* m/s */
 
-/* One wheel's braking-positive forces and their partials by (v, v_lat, ω):
- * s_x = 1 - R ω v / q, s_y = -R ω v_lat / q with q = v² + v_lat², μ(s) = ψ (c1 (1 - e^{-c2 s})
- * - c3 s), F = (μ/s) F_z s; ∂F = F_z (μ/s ∂s + (μ' - μ/s) n (n·∂s)) + (μ/s) s ∂F_z, n = s/|s|. */
+/* One wheel's braking-positive forces and their partials by (v, v_lat, ω). The filter
+ * assumes δ = 0, and at v_lat = 0 the lateral block decouples from the wheels exactly
+ * (∂F_x/∂v_lat = ∂F_y/∂ω = ∂F_y/∂v = 0): from v_y = r = 0 and a diagonal P(0) the
+ * 5-state filter's v_y and r never leave zero, so v_lat = 0 here always. Then s_y = 0,
+ * s = |s_x| with s_x = 1 - R ω / v, F_x = sgn(s_x) μ(|s_x|) F_z (μ(s) = ψ (c1 (1 - e^{-c2 s})
+ * - c3 s)), ∂F_x = μ'(|s_x|) F_z ∂s_x, and the one lateral partial is the cornering
+ * stiffness ∂F_y/∂v_lat = -(μ/s) F_z R ω / v², needed by the 5-state filter only
+ * (`lateral`). The reference (uiiekf.py) keeps the general slip of eqs. 9-16. */
 typedef struct {
-    float f_x, f_y, dx[3], dy[3];
+    float f_x, dv, dw, dy; /* F_x, ∂F_x/∂v, ∂F_x/∂ω, ∂F_y/∂v_lat */
 } wheel_t;
 
-/* v_lat = 0 (a straight line): s_y = 0 and s = |s_x|, so F_x = sgn(s_x) μ(|s_x|) F_z and
- * ∂F_x = μ'(|s_x|) F_z ∂s_x; the one lateral partial is ∂F_y/∂v_lat = -(μ/s) F_z R ω / v²,
- * needed by the 5-state filter only (`lateral`). */
-static void wheel_straight(const uiiekf_params_t *p, float w, float v, float f_z, float df_z,
-                           uint8_t lateral, wheel_t *o)
+static void wheel(const uiiekf_params_t *p, float w, float v, float f_z, float df_z,
+                  uint8_t lateral, wheel_t *o)
 {
     float inv_v = 1.0f / v, a = p->r_w * w * inv_v;
     float s_x = 1.0f - a, s = fabsf(s_x), ex = expf(-p->c2 * s);
     float mu = p->psi_c1 * (1.0f - ex) - p->psi_c3 * s;
     float signed_mu = s_x < 0.0f ? -mu : mu;
     float k = (p->psi_c1c2 * ex - p->psi_c3) * f_z * inv_v; /* μ' F_z / v */
-    *o = (wheel_t){.f_x = signed_mu * f_z, .dx = {k * a + signed_mu * df_z, 0.0f, -k * p->r_w}};
-    if (lateral) {
-        o->dy[1] = -(s < 1e-6f ? p->g0 : mu / s) * f_z * a * inv_v;
-    }
-}
-
-static void wheel(const uiiekf_params_t *p, float w, float v, float v_lat, float f_z, float df_z,
-                  uint8_t lateral, wheel_t *o)
-{
-    if (v_lat == 0.0f) {
-        wheel_straight(p, w, v, f_z, df_z, lateral, o);
-        return;
-    }
-    float inv_q = 1.0f / (v * v + v_lat * v_lat);
-    float a = p->r_w * w * inv_q;
-    float s_x = 1.0f - a * v, s_y = -a * v_lat;
-    float c = a * (v * v - v_lat * v_lat) * inv_q, e = 2.0f * a * v * v_lat * inv_q;
-    const float ds_x[3] = {c, e, -p->r_w * v * inv_q}, ds_y[3] = {e, -c, -p->r_w * v_lat * inv_q};
-    float s = sqrtf(s_x * s_x + s_y * s_y), g, h, n_x, n_y;
-    if (s < 1e-6f) { /* μ/s at its limit; μ' - μ/s -> 0 */
-        g = p->g0;
-        h = n_x = n_y = 0.0f;
-    } else {
-        float inv_s = 1.0f / s, ex = expf(-p->c2 * s);
-        g = (p->psi_c1 * (1.0f - ex) - p->psi_c3 * s) * inv_s;
-        h = p->psi_c1c2 * ex - p->psi_c3 - g;
-        n_x = s_x * inv_s;
-        n_y = s_y * inv_s;
-    }
-    float gz = g * f_z, hz = h * f_z;
-    o->f_x = gz * s_x;
-    o->f_y = gz * s_y;
-    for (uint8_t k = 0; k < 3u; k++) {
-        float dn = hz * (n_x * ds_x[k] + n_y * ds_y[k]);
-        o->dx[k] = gz * ds_x[k] + n_x * dn;
-        o->dy[k] = gz * ds_y[k] + n_y * dn;
-    }
-    o->dx[0] += g * s_x * df_z;
-    o->dy[0] += g * s_y * df_z;
+    o->f_x = signed_mu * f_z;
+    o->dv = k * a + signed_mu * df_z;
+    o->dw = -k * p->r_w;
+    o->dy = lateral ? -(s < 1e-6f ? p->g0 : mu / s) * f_z * a * inv_v : 0.0f;
 }
 
 /* ẋ of eqs. 2-16 (δ = 0, no brake torque: it is the unknown input) and A = ∂ẋ/∂x for
- * the five model states; d_x, the model's last v̇_x, is held in A. */
+ * the five model states at v_y = r = 0; d_x, the model's last v̇_x, is held in A. */
 static void model(const uiiekf_params_t *p, const float *x, float d_x, float *f, float A[5][5])
 {
-    float v_y = x[1], r = x[2];
     float v = x[0] > 0.1f ? x[0] : 0.1f, dv = x[0] > 0.1f ? 1.0f : 0.0f;
     float transfer = p->transfer * d_x, drag = p->drag * v * v, ddrag = 2.0f * p->drag * v * dv;
     const float f_z[2] = {p->load_f - transfer - drag, p->load_r + transfer + drag};
     const float lever[2] = {p->l_f, -p->l_r};
-    wheel_t wh[2];
     memset(A, 0, 25 * sizeof(float));
+    f[0] = f[1] = f[2] = 0.0f;
     for (uint8_t i = 0; i < 2u; i++) {
-        uint8_t loaded = f_z[i] > 0.0f;
-        wheel(p, x[3u + i], v, v_y + lever[i] * r, loaded ? f_z[i] : 0.0f,
-              loaded ? (i == 0u ? -ddrag : ddrag) : 0.0f, p->n == 5u, &wh[i]);
-        const wheel_t *w = &wh[i];
-        /* by state: v_x (through v), v_y and r (through v_lat), this wheel's ω */
-        const float dfx[4] = {dv * w->dx[0], w->dx[1], lever[i] * w->dx[1], w->dx[2]};
-        const float dfy[4] = {dv * w->dy[0], w->dy[1], lever[i] * w->dy[1], w->dy[2]};
-        const uint8_t col[4] = {0, 1, 2, (uint8_t)(3u + i)};
-        float yaw = p->two_inv_i_z * lever[i];
-        for (uint8_t k = 0; k < 4u; k++) {
-            A[0][col[k]] -= p->two_inv_m * dfx[k];
-            A[1][col[k]] += p->two_inv_m * dfy[k];
-            A[2][col[k]] += yaw * dfy[k];
-            A[3u + i][col[k]] = p->r_w_inv_i_w * dfx[k];
-        }
+        uint8_t w_i = (uint8_t)(3u + i), loaded = f_z[i] > 0.0f;
+        wheel_t o;
+        wheel(p, x[w_i], v, loaded ? f_z[i] : 0.0f, loaded ? (i == 0u ? -ddrag : ddrag) : 0.0f,
+              p->n == 5u, &o);
+        f[0] -= p->two_inv_m * o.f_x;
+        f[w_i] = p->r_w_inv_i_w * o.f_x;
+        A[0][0] -= p->two_inv_m * dv * o.dv;
+        A[0][w_i] = -p->two_inv_m * o.dw;
+        A[w_i][0] = p->r_w_inv_i_w * dv * o.dv;
+        A[w_i][w_i] = p->r_w_inv_i_w * o.dw;
+        /* the lateral block, through v_lat = v_y + ℓ r */
+        float dy = p->two_inv_m * o.dy, yaw = p->two_inv_i_z * lever[i] * o.dy;
+        A[1][1] += dy;
+        A[1][2] += dy * lever[i];
+        A[2][1] += yaw;
+        A[2][2] += yaw * lever[i];
     }
-    f[0] = -p->two_inv_m * (wh[0].f_x + wh[1].f_x) + r * v_y;
-    f[1] = p->two_inv_m * (wh[0].f_y + wh[1].f_y) - r * v;
-    f[2] = p->two_inv_i_z * (p->l_f * wh[0].f_y - p->l_r * wh[1].f_y);
-    f[3] = p->r_w_inv_i_w * wh[0].f_x;
-    f[4] = p->r_w_inv_i_w * wh[1].f_x;
-    A[0][1] += r;
-    A[0][2] += v_y;
-    A[1][0] -= r * dv;
-    A[1][2] -= v;
+    A[1][2] -= v; /* v̇_y = ... - r v */
 }
 
 /* The filter's states among the model's five. */
