@@ -599,8 +599,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     p.set_defaults(func=cmd_run)
 
-    p = sub.add_parser("replay", help="run a recorded drive (recording, CSV, MDF4) on a board")
-    p.add_argument("log", help="a run.arrow (or its folder), a .csv or a .mf4")
+    p = sub.add_parser(
+        "replay", help="run a recorded drive (recording, CSV, MDF4, CAN log) on a board"
+    )
+    p.add_argument(
+        "log", help="a run.arrow (or its folder), .csv, .mf4, or a CAN .blf, .asc, .log (candump)"
+    )
     p.add_argument("--scenario", required=True, help="estimator, tolerances and column mapping")
     p.add_argument(
         "--accept-truncated",
