@@ -499,7 +499,7 @@ def cmd_profile(args: argparse.Namespace) -> int:
     )
     profile.save(figures, out / "profile.json")
     if args.json:
-        args.json_out.append(figures)  # the tables went to stderr
+        args.json_out.append(figures)  # the figures rather than their tables
     for png in profile_report.plots(figures, out):
         console.print(f"plot {png}")
     console.print(f"figures {out / 'profile.json'}")
@@ -691,12 +691,18 @@ def main(argv: Sequence[str] | None = None) -> int:
         for module in papers.papers().values():
             if hasattr(module, "add_commands"):
                 module.add_commands(sub, console)
+    for name, p in sub.choices.items():  # every command that prints tables: them as JSON
+        with contextlib.suppress(argparse.ArgumentError):  # those that have it already
+            if name != "build":  # build prints the compilers' output, no table
+                _add_json_option(p)
 
     args = parser.parse_args(argv)
     if getattr(args, "size", None) == -1:
         args.size = None
     args.json_out = []
-    console.stderr = bool(getattr(args, "json", False))  # with --json stdout holds JSON alone
+    as_json = getattr(args, "json", False)
+    if as_json:  # stdout holds the JSON alone; tables not given as figures are kept as data
+        console.stderr, console.tables = True, []
     try:
         with _signals_end_the_command():
             status = int(args.func(args))
@@ -708,9 +714,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         console.print(f"[yellow]interrupted ({signal.Signals(number).name})[/]")
         return 128 + number
     finally:
-        console.stderr = False
-    if args.json_out:
-        data = args.json_out[0] if len(args.json_out) == 1 else args.json_out
+        tables, console.stderr, console.tables = console.tables, False, None
+    if as_json:
+        found = args.json_out or tables or []
+        data = found[0] if len(found) == 1 else found
         sys.stdout.write(json.dumps(data, indent=2, default=str) + "\n")
     return status
 

@@ -68,6 +68,7 @@ def test_tables_keep_their_full_width_off_a_terminal(built) -> None:  # noqa: AN
         ["run", "sine", "--board", "native"],
         ["compare", "RUN", "RUN"],
         ["profile", "--board", "native", "--no-sweep", "--estimators", "passthrough"],
+        ["reproduce", "manf"],  # a paper's tables, kept as rows
     ],
 )
 def test_every_command_that_prints_a_table_gives_json(recorded, command, capsys) -> None:  # noqa: ANN001
@@ -78,6 +79,8 @@ def test_every_command_that_prints_a_table_gives_json(recorded, command, capsys)
     assert data
     if command[0] == "run":
         assert data["verdict"]["word"] == "PASS" and data["outputs"]["y"]["passed"] is True
+    if command[0] == "reproduce":
+        assert all(t["title"] and t["rows"] for t in data)
 
 
 def test_compare_of_runs_with_no_output_in_common_says_so(recorded, tmp_path, capsys) -> None:  # noqa: ANN001
