@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+from pathlib import Path
 
 import pytest
 
@@ -46,3 +47,44 @@ def torque_log(tmp_path):  # noqa: ANN001, ANN201
     path = tmp_path / "torque.csv"
     path.write_text(head + "\n".join(rows) + "\n")
     return path
+
+
+DBC = """VERSION ""
+BU_: ECU
+BO_ 291 WHEEL_SPEEDS: 4 ECU
+ SG_ WHEEL_SPEED_FL : 0|16@1+ (0.01,0) [0|655.35] "km/h" ECU
+ SG_ WHEEL_SPEED_FR : 16|16@1+ (0.01,0) [0|655.35] "km/h" ECU
+BO_ 292 ACCEL: 2 ECU
+ SG_ ACCEL_X : 0|16@1- (0.001,0) [-32|32] "m/s^2" ECU
+"""
+
+
+@pytest.fixture
+def can_log(tmp_path):  # noqa: ANN001, ANN201
+    """A writer of 2 s of raw CAN (python-can picks the format by suffix) and its DBC:
+    wheel speeds in km/h at 100 Hz (10 m/s + 0.5 m/s²), acceleration at 50 Hz."""
+    return lambda suffix: _can_log(tmp_path, suffix)
+
+
+def _can_log(tmp_path: Path, suffix: str) -> tuple[Path, Path]:
+    import can
+    import cantools
+
+    dbc = tmp_path / "car.dbc"
+    dbc.write_text(DBC)
+    db = cantools.database.load_file(str(dbc))
+    path = tmp_path / f"drive{suffix}"
+    with can.Logger(str(path)) as writer:
+        for k in range(200):
+            t = 1000.0 + k * 0.01
+            kmh = 36 + 3.6 * 0.5 * k * 0.01  # 10 m/s + 0.5 m/s²
+            data = db.encode_message("WHEEL_SPEEDS", {"WHEEL_SPEED_FL": kmh, "WHEEL_SPEED_FR": kmh})
+            writer(can.Message(timestamp=t, arbitration_id=291, data=data, is_extended_id=False))
+            if k % 2 == 0:
+                data = db.encode_message("ACCEL", {"ACCEL_X": 0.5})
+                writer(
+                    can.Message(
+                        timestamp=t + 0.003, arbitration_id=292, data=data, is_extended_id=False
+                    )
+                )
+    return path, dbc

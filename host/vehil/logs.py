@@ -389,7 +389,7 @@ def trace_from_log(
                 "source": cm.column,
                 "unit": how,
                 "rate": f"{tm.rate:.4g} Hz",
-                "jitter": f"{tm.jitter * 1e3:.3g} ms",
+                "jitter": f"{tm.jitter * 1e3:.3g} ms" if tm.jitter > 1e-9 else "0 ms",
                 "gaps": _gaps(c, tm),
                 "missing": str(c.missing),
                 "duplicates": c.merged or "0",

@@ -43,3 +43,64 @@ def test_an_obd_export_replays_with_its_conversions_reported(torque_log, tmp_pat
     # The recording carries a_m, omega_l... by name: the [log] mapping is not applied to it.
     again = ["replay", str(out / "run.arrow"), "--scenario", str(sc), "--board", "native"]
     assert cli.main(again) == 0
+
+
+CAN_SCENARIO = """
+[scenario]
+sample_time = 0.02
+[log]
+path = "placeholder"
+dbc = "car.dbc"
+[log.columns]
+a_m = "ACCEL.ACCEL_X"
+omega_l = { column = "WHEEL_SPEEDS.WHEEL_SPEED_FL", radius = 0.25 }
+omega_r = { column = "WHEEL_SPEEDS.WHEEL_SPEED_FR", radius = 0.25 }
+brake = 0
+[log.truth]
+v = "WHEEL_SPEEDS.WHEEL_SPEED_FL"
+[estimator]
+name = "acc_kf"
+[tolerance.v]
+abs = 2e-4
+rel = 1e-5
+"""
+
+
+@pytest.mark.parametrize("suffix", [".mf4", ".log", ".asc"])
+def test_a_raw_can_log_replays_decoded_with_its_dbc(can_log, tmp_path, suffix) -> None:  # noqa: ANN001
+    path, _ = can_log(suffix)
+    sc = tmp_path / "can.toml"
+    sc.write_text(CAN_SCENARIO)
+    out = tmp_path / "run"
+    args = ["replay", str(path), "--scenario", str(sc), "--board", "native", "--out", str(out)]
+    assert cli.main(args) == 0
+    md = (out / "report.md").read_text()
+    row = "| omega_l | WHEEL_SPEEDS.WHEEL_SPEED_FL | / radius 0.25 m, (km/h)/m → rad/s | 100 Hz |"
+    assert row in md
+    assert "low-pass 20 Hz (Butterworth 4, zero phase), 100 → 50 Hz" in md
+    assert "- the run starts where ACCEL.ACCEL_X starts (t = " in md  # ASC stamps from 0
+
+
+def test_a_log_with_a_gap_is_refused_by_line_and_column(tmp_path, capsys) -> None:  # noqa: ANN001
+    rows = [f"{k * 0.1:.1f},{k}" for k in range(100)] + [
+        f"{k * 0.1:.1f},{k}" for k in range(150, 200)
+    ]
+    rows.insert(10, rows[10])  # a duplicated stamp: merged, and named in the report
+    (tmp_path / "gap.csv").write_text("t [s],speed [1]\n" + "\n".join(rows))
+    sc = tmp_path / "gap.toml"
+    sc.write_text(
+        '[scenario]\nsample_time = 0.1\n[log]\npath = "gap.csv"\n[log.columns]\ny = "speed"\n'
+        '[estimator]\nname = "passthrough"\n[tolerance.y]\nrel = 1.2e-7\n'
+    )
+    args = ["replay", str(tmp_path / "gap.csv"), "--scenario", str(sc), "--board", "native"]
+    assert cli.main(args) == 2
+    err = capsys.readouterr()
+    said = " ".join((err.out + err.err).split())
+    assert "gap.csv: line 103, column speed: no value for 5.1 s (t = 9.9 to 15 s)" in said
+    assert 'on_gap = "split"' in said
+    sc.write_text(sc.read_text().replace("[log.columns]", 'on_gap = "split"\n[log.columns]'))
+    out = tmp_path / "run"
+    assert cli.main([*args, "--out", str(out)]) == 0
+    md = (out / "report.md").read_text()
+    assert "1 duplicated stamps merged (mean), first at line 13, column speed" in md
+    assert "- split at 1 gaps longer than max_gap_s: stretches 0-9.9 s, 15-19.9 s" in md

@@ -233,46 +233,11 @@ def test_an_mdf4_log_gives_its_channels_with_their_units(tmp_path) -> None:  # n
         trace_from_log(log(path, format="mdf4", columns={"y": "rpm"}), SPEC, 0.02, math.inf)
 
 
-DBC = """VERSION ""
-BU_: ECU
-BO_ 291 WHEEL_SPEEDS: 4 ECU
- SG_ WHEEL_SPEED_FL : 0|16@1+ (0.01,0) [0|655.35] "km/h" ECU
- SG_ WHEEL_SPEED_FR : 16|16@1+ (0.01,0) [0|655.35] "km/h" ECU
-BO_ 292 ACCEL: 2 ECU
- SG_ ACCEL_X : 0|16@1- (0.001,0) [-32|32] "m/s^2" ECU
-"""
-
-
-def can_log(tmp_path, suffix: str) -> tuple[Path, Path]:  # noqa: ANN001
-    """2 s of wheel speeds at 100 Hz and acceleration at 50 Hz, written by python-can."""
-    import can
-    import cantools
-
-    dbc = tmp_path / "car.dbc"
-    dbc.write_text(DBC)
-    db = cantools.database.load_file(str(dbc))
-    path = tmp_path / f"drive{suffix}"
-    with can.Logger(str(path)) as writer:
-        for k in range(200):
-            t = 1000.0 + k * 0.01
-            kmh = 36 + 3.6 * 0.5 * k * 0.01  # 10 m/s + 0.5 m/s²
-            data = db.encode_message("WHEEL_SPEEDS", {"WHEEL_SPEED_FL": kmh, "WHEEL_SPEED_FR": kmh})
-            writer(can.Message(timestamp=t, arbitration_id=291, data=data, is_extended_id=False))
-            if k % 2 == 0:
-                data = db.encode_message("ACCEL", {"ACCEL_X": 0.5})
-                writer(
-                    can.Message(
-                        timestamp=t + 0.003, arbitration_id=292, data=data, is_extended_id=False
-                    )
-                )
-    return path, dbc
-
-
 @pytest.mark.parametrize(
     ("suffix", "fmt"), [(".mf4", "mdf4"), (".blf", "blf"), (".asc", "asc"), (".log", "candump")]
 )
-def test_raw_can_is_decoded_with_the_dbc(tmp_path, suffix, fmt) -> None:  # noqa: ANN001
-    path, dbc = can_log(tmp_path, suffix)
+def test_raw_can_is_decoded_with_the_dbc(can_log, suffix, fmt) -> None:  # noqa: ANN001
+    path, dbc = can_log(suffix)
     cols = {
         "a_m": "ACCEL.ACCEL_X",
         "omega_l": ColumnMap(column="WHEEL_SPEEDS.WHEEL_SPEED_FL", radius=0.25),
@@ -293,6 +258,9 @@ def test_raw_can_is_decoded_with_the_dbc(tmp_path, suffix, fmt) -> None:  # noqa
     bad = log(path, format=fmt, dbc=dbc, columns={**cols, "a_m": "ACCEL.ACCEL_Y"})
     with pytest.raises(LogError, match=r"'ACCEL.ACCEL_Y' is not a MESSAGE.SIGNAL of car.dbc"):
         trace_from_log(bad, ACC, 0.02, math.inf)
+    if fmt == "mdf4":  # bus logging read without its DBC: the hint says so
+        with pytest.raises(LogError, match=r"CAN_DataFrame.*set \[log\] dbc and map MESSAGE"):
+            trace_from_log(log(path, format=fmt, columns=cols), ACC, 0.02, math.inf)
 
 
 def test_one_drive_through_csv_and_through_mdf4_gives_the_same_inputs(tmp_path) -> None:  # noqa: ANN001
