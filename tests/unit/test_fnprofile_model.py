@@ -108,4 +108,4 @@ def test_files_for_flame_graph_tools(tmp_path: Path) -> None:
     }
     assert stacks == p.collapsed()
     assert files["flame"].read_bytes()[:4] == b"\x89PNG"
-    assert "| f | 30 | 30 | 30 |" in files["markdown"].read_text()
+    assert "| f | 30 | 30 | 30 | 36 | 51 | 66 | 2 | 2 | 35.3 % |" in files["markdown"].read_text()

@@ -16,24 +16,19 @@ def _mmm(x: np.ndarray, per: int) -> tuple[str, str, str]:
 
 
 def flat_rows(profile: Profile, limit: int = 30) -> list[list[str]]:
-    """function, self min/median/max, inclusive median/max, calls median/max, share."""
+    """function, self and inclusive min/median/max, calls median/max, share."""
     per = profile.per
     whole = float(np.median(profile.window_cycles)) / per or 1.0
     rows = []
     for s in profile.function_stats()[:limit]:
         if not s.self.any() and not s.calls.any():
             continue
-        lo, med, hi = _mmm(s.self, per)
-        inc = s.inclusive / per
         calls = s.calls / per
         rows.append(
             [
                 s.label,
-                lo,
-                med,
-                hi,
-                f"{np.median(inc):,.0f}",
-                f"{inc.max():,.0f}",
+                *_mmm(s.self, per),
+                *_mmm(s.inclusive, per),
                 f"{np.median(calls):,.0f}" if per == 1 else f"{calls.mean():,.1f}",
                 f"{calls.max():,.0f}" if per == 1 else "",
                 f"{np.median(s.self) / per / whole * 100:.1f} %",
@@ -47,6 +42,7 @@ FLAT_HEADER = [
     "self min",
     "self median",
     "self max",
+    "incl. min",
     "incl. median",
     "incl. max",
     "calls median",
