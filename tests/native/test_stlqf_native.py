@@ -16,6 +16,9 @@ from vehil.estimators import stlqf
         ("mass-step", "m", 2.0),
         ("rls-flat-steps", "grade", 0.5),
         ("rls-flat-steps-fixed", "grade", 6.0),
+        # Unlike the shipped drives (the first window's step from 1000 kg included):
+        ("heavy-rolling-fixed", "m", 0.2),  # 1650 kg, rolling road
+        ("van-rolling-fixed", "m", 0.3),  # 2500 kg, 1.2 m²
         ("rls-heavy-fixed", "m", 0.05),  # unlike the shipped drives: 1650 kg from 1000 kg
         ("rls-heavy-rolling-fixed", "m", 0.5),
         ("rls-truck-fixed", "cda", 2.0),
