@@ -109,3 +109,14 @@ def test_files_for_flame_graph_tools(tmp_path: Path) -> None:
     assert stacks == p.collapsed()
     assert files["flame"].read_bytes()[:4] == b"\x89PNG"
     assert "| f | 30 | 30 | 30 | 36 | 51 | 66 | 2 | 2 | 35.3 % |" in files["markdown"].read_text()
+
+
+def test_figures_for_json(tmp_path: Path) -> None:
+    from vehil.fnprofile.tables import figures
+
+    fig = figures(_profile(tmp_path))
+    assert fig["per"] == "step" and fig["windows"] == 2
+    f = next(x for x in fig["functions"] if x["name"] == "f")
+    assert f["inclusive"] == {"min": 36.0, "median": 51.0, "max": 66.0}
+    assert fig["interrupts"]["interrupt USART0_RX"]["max"] == 30.0
+    json.dumps(fig)  # plain data

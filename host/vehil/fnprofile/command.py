@@ -32,6 +32,12 @@ def show(
     return files
 
 
+def _figures(args: argparse.Namespace, profile: Profile, files: dict[str, Path]) -> None:
+    """With --json: the profile's figures on stdout rather than its tables."""
+    if getattr(args, "json", False):
+        args.json_out.append(tables.figures(profile, files))
+
+
 def run_profile(console: Console, session: collect.Session, run: Any) -> None:
     """After `vehil run --profile`: the steps' profile beside the run's report."""
     if run.error:
@@ -72,7 +78,7 @@ def profile_functions(args: argparse.Namespace, console: Console) -> int:
             if per == "frame"
             else f"the whole firmware per exchange, {args.count} exchanges"
         )
-        show(console, profile, title, folder)
+        _figures(args, profile, show(console, profile, title, folder))
         return 0
     if not args.scenario:
         raise VehilError("--functions needs a SCENARIO (or --ping SIZE for the link's frame path)")
@@ -91,5 +97,6 @@ def profile_functions(args: argparse.Namespace, console: Console) -> int:
     title = f"{sc.name}: {sc.estimator.name} ({sc.mode}) {per} on {board}" + (
         ", stop-and-wait" if args.window == 1 else ", lockstep"
     )
-    show(console, result.profile, title, folder, result.run.cycles if per == "step" else None)
+    cycles = result.run.cycles if per == "step" else None
+    _figures(args, result.profile, show(console, result.profile, title, folder, cycles))
     return 0

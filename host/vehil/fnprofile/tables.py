@@ -141,3 +141,38 @@ def markdown(
             f"| {where} | {ln.function} | {ln.cycles / n:,.1f} | {ln.cycles / total * 100:.1f} % |"
         )
     return "\n".join(out) + "\n"
+
+
+def figures(profile: Profile, files: dict | None = None) -> dict:
+    """The profile's figures for programs (`--json`): cycles per window of each function."""
+
+    def mmm(x: np.ndarray) -> dict[str, float]:
+        x = x / profile.per
+        return {"min": float(x.min()), "median": float(np.median(x)), "max": float(x.max())}
+
+    return {
+        "per": profile.what,
+        "windows": profile.windows * profile.per,
+        "cycles": mmm(profile.window_cycles),
+        "interrupts": {k: mmm(v) for k, v in profile.interrupts().items()},
+        "functions": [
+            {
+                "name": s.name,
+                "library": s.library,
+                "self": mmm(s.self),
+                "inclusive": mmm(s.inclusive),
+                "calls": mmm(s.calls),
+            }
+            for s in profile.function_stats()
+        ],
+        "lines": [
+            {
+                "file": ln.line.file if ln.line else None,
+                "line": ln.line.line if ln.line else None,
+                "function": ln.function,
+                "cycles": ln.cycles / (profile.windows * profile.per),
+            }
+            for ln in profile.hot_lines(30)
+        ],
+        "files": {k: str(v) for k, v in (files or {}).items()},
+    }
