@@ -289,25 +289,25 @@ def _convert(
         raise _unit_error(path, cm, role, want, "it has no unit")
     if not units.known(unit):
         raise _unit_error(path, cm, role, want, f"its unit {unit!r} is not one vehil knows")
-    have = unit
+    per = ""
     x = x * cm.scale + cm.offset
     how = [] if (cm.scale, cm.offset) == (1.0, 0.0) else [f"× {cm.scale:g} + {cm.offset:g}"]
     if cm.derivative:
         cut = min(cm.cutoff_hz, 0.4 / T)
         sos = signal.butter(2, cut, fs=1 / T, output="sos")
         x = np.gradient(signal.sosfiltfilt(sos, x, padlen=min(9, len(x) - 1)), T)
-        have = f"({unit})/s"
+        per = "s"
         how.append(f"d/dt low-passed at {cut:.3g} Hz")
     if cm.radius is not None:
-        have = f"({unit})/m"
+        per = "m"
         x = x / cm.radius
         how.append(f"/ radius {cm.radius:g} m")
     try:
-        y = units.convert(x, have, want)
+        y = units.convert(x, unit, want, per)
     except units.UnitError as exc:
         raise _unit_error(path, cm, role, want, str(exc)) from None
-    if not units.same(have, want):
-        how.append(f"{have} → {want}")
+    if not units.same(unit, want, per):
+        how.append(f"({unit})/{per} → {want}" if per else f"{unit} → {want}")
     return y, ", ".join(how) or f"{unit} (as logged)"
 
 

@@ -66,17 +66,19 @@ def known(text: str) -> bool:
     return True
 
 
-def convert(x: np.ndarray, have: str, want: str) -> np.ndarray:
-    """x in unit `have` (a unit expression pint reads) as unit `want`."""
+def convert(x: np.ndarray, have: str, want: str, per: str = "") -> np.ndarray:
+    """x in unit `have` (divided by unit `per`: a derivative, a speed over a radius) as
+    unit `want`. Each spelling is read on its own, so `g` stays a gravity in `g/s`."""
     ureg = _registry()
+    unit = parse(have) / parse(per) if per else parse(have)
     try:
-        return np.asarray(ureg.Quantity(x, parse(have)).to(parse(want)).magnitude, dtype=float)
+        return np.asarray(ureg.Quantity(x, unit).to(parse(want)).magnitude, dtype=float)
     except UnitError:
         raise
     except Exception as exc:  # pint's DimensionalityError
         raise UnitError(f"{have!r} does not convert to {want!r} ({exc})") from None
 
 
-def same(have: str, want: str) -> bool:
+def same(have: str, want: str, per: str = "") -> bool:
     """True if the two spellings are one unit (no conversion is applied)."""
-    return parse(have) == parse(want)
+    return (parse(have) / parse(per) if per else parse(have)) == parse(want)

@@ -277,3 +277,17 @@ def test_one_drive_through_csv_and_through_mdf4_gives_the_same_inputs(tmp_path) 
     a = trace_from_log(log(path), SPEC, 0.1, math.inf)
     b = trace_from_log(log(tmp_path / "drive.mf4", format="mdf4"), SPEC, 0.1, math.inf)
     np.testing.assert_array_equal(a.signals["y"], b.signals["y"])
+
+
+def test_a_logger_spelling_stays_itself_under_a_derivative_or_a_radius() -> None:
+    from vehil import units
+
+    one = np.array([1.0])
+    np.testing.assert_allclose(units.convert(one, "g", "m/s^2"), 9.80665)
+    np.testing.assert_allclose(units.convert(one, "g", "m/s^3", per="s"), 9.80665)  # not gram/s
+    np.testing.assert_allclose(units.convert(one, "kmh", "rad/s", per="m"), 1 / 3.6)
+    np.testing.assert_allclose(units.convert(one, "rpm", "rad/s"), 2 * np.pi / 60)
+    np.testing.assert_allclose(units.convert(one, "Meters/second", "m/s"), 1.0)
+    assert units.same("m/s²", "m/s^2") and not units.known("furlong/fortnite")
+    with pytest.raises(units.UnitError, match="'g' does not convert to 'm/s'"):
+        units.convert(one, "g", "m/s")
