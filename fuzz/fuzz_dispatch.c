@@ -12,6 +12,24 @@ void vehil_native_write(const uint8_t *data, uint32_t len);
 uint32_t vehil_native_read(uint8_t *dst, uint32_t max);
 
 static uint8_t out[65536];
+static frame_rx_t rx;
+
+/* A reply's CRC covers the type of the request it answers, which the harness does
+ * not track: a frame is well formed if it checks as the answer to some type. */
+static int well_formed(const uint8_t *frame, uint32_t len)
+{
+    for (unsigned answers = 0; answers < 256u; answers++) {
+        frame_rx_reset(&rx, (uint8_t)answers);
+        frame_status_t st = FRAME_MORE;
+        for (uint32_t i = 0; i < len; i++) {
+            st = frame_rx_byte(&rx, frame[i]);
+        }
+        if (st == FRAME_OK) {
+            return 1;
+        }
+    }
+    return 0;
+}
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
@@ -23,8 +41,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         if (out[i] != 0) {
             continue;
         }
-        frame_t f;
-        if (i > start && frame_decode(out + start, (uint16_t)(i - start), &f) != FRAME_OK) {
+        if (!well_formed(out + start, i + 1u - start)) {
             abort(); /* the board sent a frame that does not decode */
         }
         start = i + 1;

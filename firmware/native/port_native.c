@@ -14,7 +14,9 @@
 #define NATIVE_RX_BUFFER 4096u /* no real buffer: the window the host may use */
 
 static uint8_t out_buf[NATIVE_OUT_SIZE];
-static uint32_t out_len;
+static uint32_t out_len;      /* bytes the host may read */
+static uint32_t out_write;    /* bytes appended, released or not */
+static uint32_t out_held;     /* the placeholder */
 static uint32_t out_dropped;
 static uint32_t baud = 1000000u;
 static uint16_t boot_count;
@@ -29,14 +31,27 @@ uint32_t port_cycles(void)
 
 uint32_t port_cycles_per_second(void) { return 1000000000u; }
 
-void port_write(const uint8_t *data, uint16_t len)
+void port_tx_put(uint8_t byte)
 {
-    if (out_len + len > NATIVE_OUT_SIZE) {
-        out_dropped += len; /* the host stopped reading; it sees the loss as missing replies */
+    if (out_write == NATIVE_OUT_SIZE) {
+        out_dropped++; /* the host stopped reading; it sees the loss as missing replies */
         return;
     }
-    memcpy(out_buf + out_len, data, len);
-    out_len += len;
+    out_buf[out_write++] = byte;
+}
+
+void port_tx_open(void)
+{
+    out_held = out_write;
+    port_tx_put(0);
+}
+
+void port_tx_close(uint8_t code)
+{
+    if (out_held < out_write) {
+        out_buf[out_held] = code;
+    }
+    out_len = out_write;
 }
 
 void port_flush(void) {}
@@ -67,7 +82,7 @@ void port_hang(void) { boot(RESET_CAUSE_WATCHDOG); }
 
 void vehil_native_power_on(void)
 {
-    out_len = 0;
+    out_len = out_write = 0;
     out_dropped = 0;
     boot_count = 0;
     boot(RESET_CAUSE_POWER_ON);
@@ -84,8 +99,9 @@ uint32_t vehil_native_read(uint8_t *dst, uint32_t max)
 {
     uint32_t n = out_len < max ? out_len : max;
     memcpy(dst, out_buf, n);
-    memmove(out_buf, out_buf + n, out_len - n);
+    memmove(out_buf, out_buf + n, out_write - n);
     out_len -= n;
+    out_write -= n;
     return n;
 }
 

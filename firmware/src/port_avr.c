@@ -68,7 +68,9 @@ void port_avr_init(void)
 uint32_t port_cycles(void) { return cycles_now(); }
 uint32_t port_cycles_per_second(void) { return F_CPU; }
 
-void port_write(const uint8_t *data, uint16_t len) { uart_write(data, len); }
+void port_tx_open(void) { uart_tx_open(); }
+void port_tx_put(uint8_t byte) { uart_tx_put(byte); }
+void port_tx_close(uint8_t code) { uart_tx_close(code); }
 
 void port_flush(void) { uart_flush(); }
 uint16_t port_rx_buffer(void) { return UART_RX_SIZE - 1u; }

@@ -6,40 +6,44 @@
 #include <util/atomic.h>
 
 static volatile uint8_t rx_buf[UART_RX_SIZE];
-static volatile uint16_t rx_head; /* written by the ISR */
-static uint16_t rx_tail;
+static volatile uint8_t rx_head; /* written by the RX interrupt */
+static volatile uint8_t rx_tail;
 static volatile uint16_t rx_overruns;
 
 static volatile uint8_t tx_buf[UART_TX_SIZE];
-static uint8_t tx_head;
-static volatile uint8_t tx_tail; /* advanced by the ISR */
+static volatile uint8_t tx_head; /* released bytes end here */
+static volatile uint8_t tx_tail; /* advanced by the UDRE interrupt */
+static uint8_t tx_write;         /* the next byte appended goes here */
+static uint8_t tx_held;          /* the placeholder */
 
 static uint32_t current_baud;
 
 ISR(USART0_RX_vect)
 {
-    uint8_t hw_overrun = UCSR0A & _BV(DOR0);
+    uint8_t lost = UCSR0A & _BV(DOR0); /* the hardware dropped a byte before this one */
     uint8_t byte = UDR0;
-    uint16_t next = (uint16_t)((rx_head + 1u) % UART_RX_SIZE);
-    if (next == rx_tail || hw_overrun) {
-        if (rx_overruns != UINT16_MAX) {
-            rx_overruns++;
-        }
-    }
+    uint8_t head = rx_head;
+    uint8_t next = (uint8_t)(head + 1u);
     if (next != rx_tail) {
-        rx_buf[rx_head] = byte;
+        rx_buf[head] = byte;
         rx_head = next;
+    } else {
+        lost = 1;
+    }
+    if (lost && rx_overruns != UINT16_MAX) {
+        rx_overruns++;
     }
 }
 
 ISR(USART0_UDRE_vect)
 {
-    if (tx_tail == tx_head) {
+    uint8_t tail = tx_tail;
+    if (tail == tx_head) {
         UCSR0B &= (uint8_t)~_BV(UDRIE0);
         return;
     }
-    UDR0 = tx_buf[tx_tail];
-    tx_tail = (uint8_t)(tx_tail + 1u);
+    UDR0 = tx_buf[tail];
+    tx_tail = (uint8_t)(tail + 1u);
 }
 
 int32_t uart_ubrr(uint32_t baud)
@@ -68,36 +72,39 @@ void uart_init(uint32_t baud)
  * boundary); aligning the function keeps the loop on one page. */
 __attribute__((noinline, aligned(256))) uint8_t uart_wait_byte(void)
 {
-    uint16_t head;
-    do {
+    uint8_t tail = rx_tail;
+    while (rx_head == tail) {
         wdt_reset();
-        ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { head = rx_head; }
-    } while (head == rx_tail);
-    uint8_t byte = rx_buf[rx_tail];
-    ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { rx_tail = (uint16_t)((rx_tail + 1u) % UART_RX_SIZE); }
+    }
+    uint8_t byte = rx_buf[tail];
+    rx_tail = (uint8_t)(tail + 1u);
     return byte;
 }
 
-void uart_write(const uint8_t *data, uint16_t len)
+void uart_tx_put(uint8_t byte)
 {
-    /* Copy as much as fits, then publish it with one atomic update: a reply costs
-     * one interrupt-masked section, not one per byte. */
-    while (len > 0u) {
-        uint8_t head = tx_head;
-        while ((uint8_t)(head + 1u) == tx_tail) {
-            /* full: the UDRE interrupt drains it */
-        }
-        while (len > 0u && (uint8_t)(head + 1u) != tx_tail) {
-            tx_buf[head] = *data++;
-            head = (uint8_t)(head + 1u);
-            len--;
-        }
-        ATOMIC_BLOCK(ATOMIC_RESTORESTATE)
-        {
-            tx_head = head;
-            UCSR0A |= _BV(TXC0); /* writing 1 clears it: it now means "these bytes are out" */
-            UCSR0B |= _BV(UDRIE0);
-        }
+    uint8_t w = tx_write;
+    while ((uint8_t)(w + 1u) == tx_tail) {
+        /* full: the UDRE interrupt drains what was released */
+    }
+    tx_buf[w] = byte;
+    tx_write = (uint8_t)(w + 1u);
+}
+
+void uart_tx_open(void)
+{
+    tx_held = tx_write;
+    uart_tx_put(0);
+}
+
+void uart_tx_close(uint8_t code)
+{
+    tx_buf[tx_held] = code;
+    ATOMIC_BLOCK(ATOMIC_RESTORESTATE)
+    {
+        tx_head = tx_write;
+        UCSR0A |= _BV(TXC0); /* writing 1 clears it: it now means "these bytes are out" */
+        UCSR0B |= _BV(UDRIE0);
     }
 }
 

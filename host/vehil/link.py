@@ -23,8 +23,10 @@ from vehil.protocol.schema import SCHEMA
 
 _ERROR_NAMES = {v: k for k, v in SCHEMA.error.items()}
 _RESET_CAUSES = {v: k for k, v in SCHEMA.reset_cause.items()}
-# Seq 0 is reserved for frames the board sends on its own (boot INFO, link errors).
+# Seq 0 is reserved for frames the board sends on its own (boot INFO, link errors),
+# 0xFFFF for requests slipped in from outside the session (faults:// reboot_after).
 _FIRST_SEQ = 1
+_LAST_SEQ = framing.SEQ_MAX - 1
 MAX_FRAMES_IN_FLIGHT = 32
 # Sending these twice leaves the board as sending them once: CONFIG resets the estimator,
 # and a SAMPLE's index makes the board answer a repeat from its RESULT cache.
@@ -138,7 +140,10 @@ class Link:
     def __init__(self, port: serial.SerialBase, *, timeout_s: float = 2.0):
         self.port = port
         self.timeout_s = timeout_s
-        self.decoder = framing.StreamDecoder()
+        # Every seq sent, with its request's type: a reply's CRC covers that type, so a
+        # reply is accepted only as the answer to the request it was made for.
+        self._sent_types: dict[int, int] = {}
+        self.decoder = framing.StreamDecoder(answers=lambda seq: self._sent_types.get(seq, 0))
         self.info: BoardInfo | None = None
         self._seq = _FIRST_SEQ
         self._inbox: deque[tuple[framing.Frame, float]] = deque()
@@ -155,7 +160,7 @@ class Link:
 
     def _next_seq(self) -> int:
         seq = self._seq
-        self._seq = seq + 1 if seq < 0xFF else _FIRST_SEQ
+        self._seq = seq + 1 if seq < _LAST_SEQ else _FIRST_SEQ
         return seq
 
     def _read_frame(self, deadline: float) -> tuple[framing.Frame, float] | None:
@@ -173,7 +178,9 @@ class Link:
         return self._inbox.popleft()
 
     def _send(self, name: str, seq: int, body: bytes) -> tuple[bytes, float]:
-        wire = framing.encode(SCHEMA.messages[name].type, seq, body)
+        type_code = SCHEMA.messages[name].type
+        self._sent_types[seq] = type_code
+        wire = framing.encode(type_code, seq, body)
         try:
             self.port.write(wire)
         except (serial.SerialException, OSError) as exc:

@@ -17,7 +17,7 @@ def test_the_synthetic_scenario_passes_on_each_virtual_board(run_scenario, board
     result.assert_passed()
     assert result.run.done == int(duration / 0.002)
     # The board's stack high-water, read after the run, travels into the figures.
-    assert 100 < result.figures.stack_bytes < result.run.info["free_ram"]
+    assert 40 < result.figures.stack_bytes < result.run.info["free_ram"]
     assert record.read(result.recording).end["stack_bytes"] == result.figures.stack_bytes
 
 

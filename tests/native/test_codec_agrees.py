@@ -1,55 +1,58 @@
-"""The C codec (firmware/lib/proto, host build) and the Python codec agree."""
+"""The C frame codec (firmware/lib/proto, host build) and the Python one agree.
 
-import ctypes
+The C side is reached through the native board: its replies are encoded by the C
+encoder (COBS and CRC-32C into the TX buffer byte by byte) and must decode in Python;
+the requests Python encodes, corrupted or not, must be taken or refused by the C
+decoder exactly as the Python decoder takes or refuses them.
+"""
 
-from hypothesis import given, settings
+import pytest
+from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from vehil.protocol import cobs, frame
-from vehil.protocol.crc import crc16
+from vehil.boards import open_board
+from vehil.protocol import frame
 from vehil.protocol.schema import SCHEMA
 
-
-def _buf(n: int) -> ctypes.Array:
-    return ctypes.create_string_buffer(n)
+PING = SCHEMA.messages["PING"].type
 
 
-@settings(max_examples=300)
-@given(data=st.binary(max_size=600))
-def test_c_cobs_encode_equals_python(native_lib, data: bytes) -> None:
-    out = _buf(len(data) + len(data) // 254 + 2)
-    n = native_lib.cobs_encode(data, len(data), out)
-    assert out.raw[:n] == cobs.encode(data)
+@pytest.fixture(scope="module")
+def link(built):  # noqa: ANN001, ANN201
+    with open_board("native", timeout_s=0.2) as link:
+        yield link
 
 
-@settings(max_examples=300)
-@given(block=st.binary(max_size=300))
-def test_c_cobs_decode_accepts_and_refuses_what_python_does(native_lib, block: bytes) -> None:
-    native_lib.cobs_decode.restype = ctypes.c_int16
-    out = _buf(len(block) + 1)
-    n = native_lib.cobs_decode(block, len(block), out)
-    try:
-        expected = cobs.decode(block)
-    except cobs.CobsError:
-        assert n == -1
-    else:
-        assert out.raw[:n] == expected
+@settings(max_examples=300, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(payload=st.binary(max_size=SCHEMA.max_body - 4))
+def test_c_encoder_frames_decode_in_python(link, payload: bytes) -> None:
+    assert link.request("PING", payload=payload).fields()["payload"] == payload
 
 
-@given(data=st.binary(max_size=300))
-def test_c_crc_equals_python(native_lib, data: bytes) -> None:
-    native_lib.crc16.restype = ctypes.c_uint16
-    assert native_lib.crc16(data, len(data)) == crc16(data)
-
-
-@settings(max_examples=300)
+@settings(max_examples=300, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(
-    type_code=st.integers(0, 255),
-    seq=st.integers(0, 255),
-    body=st.binary(max_size=SCHEMA.max_body),
+    payload=st.binary(max_size=40),
+    edits=st.lists(st.tuples(st.integers(0, 200), st.integers(0, 255)), max_size=3),
 )
-def test_c_frame_encode_equals_python(native_lib, type_code: int, seq: int, body: bytes) -> None:
-    native_lib.frame_encode.restype = ctypes.c_uint16
-    out = _buf(frame.WIRE_MAX)
-    n = native_lib.frame_encode(type_code, seq, body, len(body), out)
-    assert out.raw[:n] == frame.encode(type_code, seq, body)
+def test_c_decoder_takes_and_refuses_what_python_does(link, payload, edits) -> None:
+    wire = bytearray(frame.encode(PING, 7, payload)[:-1])
+    for where, value in edits:  # overwrite or insert bytes, never a delimiter
+        if value == 0:
+            continue
+        if where % 2:
+            wire[where % len(wire)] = value
+        else:
+            wire.insert(where % (len(wire) + 1), value)
+    try:
+        frame.decode(bytes(wire))
+        python_takes = True
+    except frame.FrameError:
+        python_takes = False
+    before = link.stats()
+    link.port.write(bytes(wire) + b"\x00")
+    if python_takes:
+        reply = link.port.read(256)
+        assert reply.endswith(b"\x00") and frame.decode(reply[:-1], lambda seq: PING)
+    after = link.stats()
+    refused = sum(after[k] - before[k] for k in ("crc_errors", "cobs_errors", "oversize"))
+    assert refused == (0 if python_takes else 1)

@@ -9,8 +9,14 @@
 uint32_t port_cycles(void);
 uint32_t port_cycles_per_second(void);
 
-/* Queues bytes for the host; blocks while the TX buffer is full. */
-void port_write(const uint8_t *data, uint16_t len);
+/* Frames are encoded straight into the TX buffer. port_tx_open() appends a
+ * placeholder (a COBS code byte, known only when its block ends) and holds it and
+ * everything after it back; port_tx_put() appends a byte; port_tx_close() writes the
+ * placeholder and lets everything appended so far go out. One placeholder at a time;
+ * appending waits while the buffer is full. */
+void port_tx_open(void);
+void port_tx_put(uint8_t byte);
+void port_tx_close(uint8_t code);
 /* Returns once every queued byte has left the UART. */
 void port_flush(void);
 

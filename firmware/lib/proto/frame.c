@@ -1,40 +1,118 @@
 #include "proto/frame.h"
 
-#include <string.h>
+#include "board/port.h"
+#include "proto/crc32c.h"
 
-#include "proto/crc16.h"
-#include "proto/wire.h"
-
-uint16_t frame_encode(uint8_t type, uint8_t seq, const uint8_t *body, uint16_t body_len,
-                      uint8_t *out)
+void frame_rx_reset(frame_rx_t *rx, uint8_t answers)
 {
-    uint8_t raw[FRAME_RAW_MAX];
-    raw[0] = type;
-    raw[1] = seq;
-    memcpy(raw + FRAME_HEADER_SIZE, body, body_len);
-    uint16_t n = (uint16_t)(FRAME_HEADER_SIZE + body_len);
-    put_u16(raw + n, crc16(raw, n));
-    n = cobs_encode(raw, (uint16_t)(n + FRAME_CRC_SIZE), out);
-    out[n++] = 0;
-    return n;
+    rx->n = 0;
+    rx->left = 0;
+    rx->zero = 0;
+    rx->status = FRAME_MORE;
+    rx->answers = answers;
+    rx->crc = crc32c_update(CRC32C_INIT, answers);
 }
 
-frame_status_t frame_decode(uint8_t *buf, uint16_t len, frame_t *frame)
+static void rx_emit(frame_rx_t *rx, uint8_t byte)
 {
-    int16_t n = cobs_decode(buf, len, buf);
-    if (n < 0) {
-        return FRAME_BAD_COBS;
+    if (rx->n == FRAME_RAW_MAX) {
+        rx->status = FRAME_OVERSIZE; /* the rest is dropped up to the delimiter */
+        return;
     }
-    if (n < (int16_t)(FRAME_HEADER_SIZE + FRAME_CRC_SIZE)) {
-        return FRAME_TOO_SHORT;
+    rx->raw[rx->n++] = byte;
+    rx->crc = crc32c_update(rx->crc, byte);
+}
+
+static frame_status_t rx_end(frame_rx_t *rx, uint8_t started)
+{
+    frame_status_t st = (frame_status_t)rx->status;
+    if (st == FRAME_MORE) {
+        if (!started) {
+            st = FRAME_IDLE;
+        } else if (rx->left != 0) {
+            st = FRAME_BAD_COBS;
+        } else if (rx->n < FRAME_HEADER_SIZE + FRAME_CRC_SIZE || rx->crc != CRC32C_RESIDUE ||
+                   rx->raw[3] != (uint8_t)(rx->n - FRAME_HEADER_SIZE - FRAME_CRC_SIZE)) {
+            st = FRAME_BAD_CRC;
+        } else {
+            st = FRAME_OK;
+        }
     }
-    uint16_t covered = (uint16_t)n - FRAME_CRC_SIZE;
-    if (crc16(buf, covered) != get_u16(buf + covered)) {
-        return FRAME_BAD_CRC;
+    return st;
+}
+
+frame_status_t frame_rx_byte(frame_rx_t *rx, uint8_t byte)
+{
+    if (byte == 0) {
+        uint8_t started = rx->n != 0 || rx->left != 0 || rx->zero || rx->status != FRAME_MORE;
+        frame_status_t st = rx_end(rx, started);
+        frame_rx_reset(rx, rx->answers); /* raw is kept: the frame is read before the next byte */
+        return st;
     }
-    frame->type = buf[0];
-    frame->seq = buf[1];
-    frame->body = buf + FRAME_HEADER_SIZE;
-    frame->body_len = (uint16_t)(covered - FRAME_HEADER_SIZE);
-    return FRAME_OK;
+    if (rx->status != FRAME_MORE) {
+        return FRAME_MORE;
+    }
+    if (rx->left != 0) {
+        rx->left--;
+        rx_emit(rx, byte);
+    } else {
+        if (rx->zero) {
+            rx_emit(rx, 0); /* the previous block's zero: the frame went on */
+        }
+        rx->left = (uint8_t)(byte - 1u);
+        rx->zero = byte != 0xFFu;
+    }
+    return FRAME_MORE;
+}
+
+static void tx_put(frame_tx_t *tx, uint8_t byte)
+{
+    if (tx->code == 0xFFu) { /* a full block: it ends here without standing for a zero */
+        port_tx_close(0xFFu);
+        port_tx_open();
+        tx->code = 1;
+    }
+    if (byte == 0) {
+        port_tx_close(tx->code);
+        port_tx_open();
+        tx->code = 1;
+    } else {
+        port_tx_put(byte);
+        tx->code++;
+    }
+}
+
+static void tx_crc_put(frame_tx_t *tx, uint8_t byte)
+{
+    tx->crc = crc32c_update(tx->crc, byte);
+    tx_put(tx, byte);
+}
+
+void frame_tx_begin(frame_tx_t *tx, uint8_t answers, uint8_t type, uint16_t seq, uint8_t len)
+{
+    tx->crc = crc32c_update(CRC32C_INIT, answers);
+    tx->code = 1;
+    port_tx_open();
+    tx_crc_put(tx, type);
+    tx_crc_put(tx, (uint8_t)seq);
+    tx_crc_put(tx, (uint8_t)(seq >> 8));
+    tx_crc_put(tx, len);
+}
+
+void frame_tx_bytes(frame_tx_t *tx, const uint8_t *data, uint8_t n)
+{
+    while (n-- > 0u) {
+        tx_crc_put(tx, *data++);
+    }
+}
+
+void frame_tx_end(frame_tx_t *tx)
+{
+    uint32_t crc = tx->crc ^ CRC32C_XOROUT;
+    for (uint8_t i = 0; i < 4u; i++) {
+        tx_put(tx, (uint8_t)crc);
+        crc >>= 8;
+    }
+    port_tx_put(0); /* the delimiter, released with the last block */
+    port_tx_close(tx->code);
 }

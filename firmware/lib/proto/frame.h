@@ -1,39 +1,67 @@
-/* Frames: COBS(type | seq | body | crc16-le) followed by a 0x00 delimiter. */
+/* Frames, protocol v3: COBS(type u8 | seq u16 | len u8 | body | crc u32) 0x00, all
+ * little-endian. The CRC-32C covers one byte that is not sent, the type of the
+ * request the frame answers (0 for a request, or for a frame the board sends on its
+ * own), then type .. body: a reply passes only as the answer to its own request.
+ * `len` is the body's length, checked against the bytes received.
+ *
+ * Both directions work a byte at a time, with no whole-frame buffers: the receiver
+ * decodes COBS and runs the CRC as bytes arrive; the sender encodes COBS and the CRC
+ * straight into the platform's transmit buffer (port.h). */
 #ifndef VEHIL_PROTO_FRAME_H
 #define VEHIL_PROTO_FRAME_H
 
 #include <stdint.h>
 
-#include "proto/cobs.h"
 #include "proto/messages.h"
 
-#define FRAME_HEADER_SIZE 2u /* type, seq */
-#define FRAME_CRC_SIZE 2u
+#define FRAME_HEADER_SIZE 4u /* type, seq, len */
+#define FRAME_CRC_SIZE 4u
 #define FRAME_RAW_MAX (FRAME_HEADER_SIZE + VEHIL_MAX_BODY + FRAME_CRC_SIZE)
-/* Largest frame on the wire, delimiter included. */
-#define FRAME_WIRE_MAX (COBS_MAX_ENCODED(FRAME_RAW_MAX) + 1u)
+/* Largest frame on the wire: a COBS code byte per 254 bytes, then the delimiter. */
+#define FRAME_WIRE_MAX (FRAME_RAW_MAX + FRAME_RAW_MAX / 254u + 2u)
 
 typedef enum {
-    FRAME_OK = 0,
-    FRAME_BAD_COBS,
-    FRAME_TOO_SHORT,
-    FRAME_BAD_CRC,
+    FRAME_MORE = 0, /* not a delimiter: the frame goes on */
+    FRAME_OK,
+    FRAME_IDLE,     /* a delimiter with no frame before it */
+    FRAME_BAD_COBS, /* a code byte pointing past the delimiter */
+    FRAME_BAD_CRC,  /* CRC, length field or a frame too short to hold them */
+    FRAME_OVERSIZE, /* more than FRAME_RAW_MAX decoded bytes */
 } frame_status_t;
 
+/* A frame being received. On FRAME_OK, raw holds type, seq, len, body and CRC. */
 typedef struct {
-    uint8_t type;
-    uint8_t seq;
-    const uint8_t *body;
-    uint16_t body_len;
-} frame_t;
+    uint8_t raw[FRAME_RAW_MAX];
+    uint8_t n;      /* bytes decoded */
+    uint8_t left;   /* data bytes left in the COBS block; 0: the next byte is a code */
+    uint8_t zero;   /* the block ends in an implied zero, emitted if the frame goes on */
+    uint8_t status; /* FRAME_MORE while the frame is good so far */
+    uint8_t answers;
+    uint32_t crc;
+} frame_rx_t;
 
-/* Writes the whole wire frame (delimiter included) into out, which must hold
- * FRAME_WIRE_MAX bytes; body_len must not exceed VEHIL_MAX_BODY. Returns the length. */
-uint16_t frame_encode(uint8_t type, uint8_t seq, const uint8_t *body, uint16_t body_len,
-                      uint8_t *out);
+/* Starts a frame that answers a request of type `answers` (0: a request). */
+void frame_rx_reset(frame_rx_t *rx, uint8_t answers);
+/* Feeds one byte; at a delimiter returns the frame's verdict and starts the next
+ * frame (answering the same type), else FRAME_MORE. */
+frame_status_t frame_rx_byte(frame_rx_t *rx, uint8_t byte);
 
-/* Decodes the bytes between two delimiters in place; on FRAME_OK, frame->body
- * points into buf. */
-frame_status_t frame_decode(uint8_t *buf, uint16_t len, frame_t *frame);
+static inline uint8_t frame_type(const frame_rx_t *rx) { return rx->raw[0]; }
+static inline uint16_t frame_seq(const frame_rx_t *rx)
+{
+    return (uint16_t)(rx->raw[1] | ((uint16_t)rx->raw[2] << 8));
+}
+static inline uint8_t frame_body_len(const frame_rx_t *rx) { return rx->raw[3]; }
+static inline const uint8_t *frame_body(const frame_rx_t *rx) { return rx->raw + FRAME_HEADER_SIZE; }
+
+/* A frame being sent: begin, the body's bytes (exactly len of them), end. */
+typedef struct {
+    uint32_t crc;
+    uint8_t code; /* the COBS block's code so far */
+} frame_tx_t;
+
+void frame_tx_begin(frame_tx_t *tx, uint8_t answers, uint8_t type, uint16_t seq, uint8_t len);
+void frame_tx_bytes(frame_tx_t *tx, const uint8_t *data, uint8_t n);
+void frame_tx_end(frame_tx_t *tx);
 
 #endif

@@ -5,7 +5,7 @@
 
 #include "proto/wire.h"
 
-#define VEHIL_PROTOCOL_VERSION 2u
+#define VEHIL_PROTOCOL_VERSION 3u
 #define VEHIL_MAX_BODY 128u
 
 /* Message types */

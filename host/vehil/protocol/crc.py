@@ -1,22 +1,27 @@
-"""CRC-16/CCITT-FALSE (poly 0x1021, init 0xFFFF, not reflected, no final xor)."""
+"""CRC-32C (Castagnoli: reflected polynomial 0x82F63B78, init and final xor 0xFFFFFFFF),
+table-driven like firmware/lib/proto/crc32c.c."""
 
 from __future__ import annotations
+
+INIT = 0xFFFFFFFF
+POLY = 0x82F63B78
 
 
 def _table() -> list[int]:
     table = []
     for byte in range(256):
-        crc = byte << 8
+        crc = byte
         for _ in range(8):
-            crc = ((crc << 1) ^ 0x1021) if crc & 0x8000 else (crc << 1)
-        table.append(crc & 0xFFFF)
+            crc = (crc >> 1) ^ POLY if crc & 1 else crc >> 1
+        table.append(crc)
     return table
 
 
-_TABLE = _table()
+TABLE = _table()
 
 
-def crc16(data: bytes, crc: int = 0xFFFF) -> int:
+def crc32c(data: bytes, crc: int = INIT) -> int:
+    """The CRC register after `data` (no final xor): chain calls, then xor with INIT."""
     for byte in data:
-        crc = ((crc << 8) & 0xFFFF) ^ _TABLE[(crc >> 8) ^ byte]
+        crc = TABLE[(crc ^ byte) & 0xFF] ^ (crc >> 8)
     return crc

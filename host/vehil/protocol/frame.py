@@ -1,19 +1,28 @@
-"""Frames on the wire: COBS(type | seq | body | crc16-le) 0x00, and a decoder
-that splits a byte stream into frames and resynchronises on the next 0x00."""
+"""Frames on the wire (protocol v3): COBS(type u8 | seq u16 | len u8 | body | crc u32) 0x00,
+and a decoder that splits a byte stream into frames and resynchronises on the next 0x00.
+
+The CRC-32C covers one byte that is not sent, the type of the request the frame
+answers (0 for a request, or a frame the board sends on its own), then type..body:
+a reply is accepted only as the answer to the request it was made for. `len` is
+the body's length, checked against the bytes received.
+"""
 
 from __future__ import annotations
 
 import struct
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
 from vehil.protocol import cobs
-from vehil.protocol.crc import crc16
+from vehil.protocol.crc import INIT, crc32c
 from vehil.protocol.schema import SCHEMA, MessageType
 
 DELIMITER = b"\x00"
-HEADER_SIZE = 2
-CRC_SIZE = 2
+HEADER = struct.Struct("<BHB")  # type, seq, len
+HEADER_SIZE = HEADER.size
+CRC_SIZE = 4
+SEQ_MAX = 0xFFFF
 RAW_MAX = HEADER_SIZE + SCHEMA.max_body + CRC_SIZE
 WIRE_MAX = RAW_MAX + RAW_MAX // 254 + 1 + 1  # COBS overhead plus the delimiter
 
@@ -46,25 +55,36 @@ class Frame:
         return m.unpack(self.body)
 
 
-def encode(type_code: int, seq: int, body: bytes = b"") -> bytes:
+def _crc(answers: int, covered: bytes) -> int:
+    return crc32c(covered, crc32c(bytes([answers]))) ^ INIT
+
+
+def encode(type_code: int, seq: int, body: bytes = b"", answers: int = 0) -> bytes:
+    """A whole wire frame; `answers` is the type of the request a reply answers."""
     if len(body) > SCHEMA.max_body:
         raise ValueError(f"body of {len(body)} bytes exceeds the protocol's {SCHEMA.max_body}")
-    raw = bytes([type_code, seq & 0xFF]) + body
-    return cobs.encode(raw + struct.pack("<H", crc16(raw))) + DELIMITER
+    raw = HEADER.pack(type_code, seq & SEQ_MAX, len(body)) + body
+    return cobs.encode(raw + struct.pack("<I", _crc(answers, raw))) + DELIMITER
 
 
-def decode(block: bytes) -> Frame:
-    """Decodes the bytes between two delimiters."""
+def decode(block: bytes, answers: Callable[[int], int] = lambda seq: 0) -> Frame:
+    """Decodes the bytes between two delimiters. `answers(seq)` is the type of the request
+    a frame with that seq answers (0: none), which its CRC must cover."""
     try:
         raw = cobs.decode(block)
     except cobs.CobsError as exc:
         raise FrameError(f"bad COBS: {exc}") from None
     if len(raw) < HEADER_SIZE + CRC_SIZE:
         raise FrameError(f"frame of {len(raw)} bytes is shorter than header and CRC")
-    covered, (crc,) = raw[:-CRC_SIZE], struct.unpack("<H", raw[-CRC_SIZE:])
-    if crc16(covered) != crc:
-        raise FrameError(f"CRC mismatch: frame says 0x{crc:04X}, bytes give 0x{crc16(covered):04X}")
-    return Frame(covered[0], covered[1], bytes(covered[HEADER_SIZE:]), len(block) + 1)
+    type_code, seq, length = HEADER.unpack_from(raw)
+    covered, (crc,) = raw[:-CRC_SIZE], struct.unpack("<I", raw[-CRC_SIZE:])
+    expected = _crc(answers(seq), covered)
+    if expected != crc:
+        raise FrameError(f"CRC mismatch: frame says 0x{crc:08X}, bytes give 0x{expected:08X}")
+    body = bytes(covered[HEADER_SIZE:])
+    if length != len(body):
+        raise FrameError(f"length field says {length} body bytes, the frame has {len(body)}")
+    return Frame(type_code, seq, body, len(block) + 1)
 
 
 @dataclass
@@ -72,6 +92,7 @@ class StreamDecoder:
     """Splits received bytes into frames; counts what it had to drop."""
 
     buffer: bytearray = field(default_factory=bytearray)
+    answers: Callable[[int], int] = lambda seq: 0  # seq -> the request type it answers
     bad_frames: int = 0
     oversize: int = 0
     last_error: str = ""
@@ -85,7 +106,7 @@ class StreamDecoder:
             if not block:
                 continue
             try:
-                frames.append(decode(block))
+                frames.append(decode(block, self.answers))
             except FrameError as exc:
                 self.bad_frames += 1
                 self.last_error = str(exc)

@@ -29,7 +29,9 @@ from vehil.protocol.schema import SCHEMA
 KINDS = ("drop", "flip", "dup", "insert")
 _OPTIONS = ("delay_ms", "reboot_after", "seed")
 # RESET what=1 with a seq the host never uses for its own requests in flight.
-_REBOOT = frame.encode(SCHEMA.messages["RESET"].type, 0xFF, SCHEMA.messages["RESET"].pack(what=1))
+_REBOOT = frame.encode(
+    SCHEMA.messages["RESET"].type, frame.SEQ_MAX, SCHEMA.messages["RESET"].pack(what=1)
+)
 
 
 def parse_spec(spec: str) -> dict[str, float]:
