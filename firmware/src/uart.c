@@ -5,46 +5,18 @@
 #include <avr/wdt.h>
 #include <util/atomic.h>
 
-static volatile uint8_t rx_buf[UART_RX_SIZE];
-static volatile uint8_t rx_head; /* written by the RX interrupt */
-static volatile uint8_t rx_tail;
-static volatile uint16_t rx_overruns;
+/* Shared with the interrupts in uart_isr.S. */
+volatile uint8_t uart_rx_buf[UART_RX_SIZE];
+volatile uint8_t uart_rx_head; /* written by the RX interrupt */
+volatile uint8_t uart_rx_tail;
+volatile uint16_t uart_rx_lost;
+volatile uint8_t uart_tx_buf[UART_TX_SIZE];
+volatile uint8_t uart_tx_head; /* released bytes end here */
+volatile uint8_t uart_tx_tail; /* advanced by the UDRE interrupt */
 
-static volatile uint8_t tx_buf[UART_TX_SIZE];
-static volatile uint8_t tx_head; /* released bytes end here */
-static volatile uint8_t tx_tail; /* advanced by the UDRE interrupt */
-static uint8_t tx_write;         /* the next byte appended goes here */
-static uint8_t tx_held;          /* the placeholder */
-
+static uint8_t tx_write; /* the next byte appended goes here */
+static uint8_t tx_held;  /* the placeholder */
 static uint32_t current_baud;
-
-ISR(USART0_RX_vect)
-{
-    uint8_t lost = UCSR0A & _BV(DOR0); /* the hardware dropped a byte before this one */
-    uint8_t byte = UDR0;
-    uint8_t head = rx_head;
-    uint8_t next = (uint8_t)(head + 1u);
-    if (next != rx_tail) {
-        rx_buf[head] = byte;
-        rx_head = next;
-    } else {
-        lost = 1;
-    }
-    if (lost && rx_overruns != UINT16_MAX) {
-        rx_overruns++;
-    }
-}
-
-ISR(USART0_UDRE_vect)
-{
-    uint8_t tail = tx_tail;
-    if (tail == tx_head) {
-        UCSR0B &= (uint8_t)~_BV(UDRIE0);
-        return;
-    }
-    UDR0 = tx_buf[tail];
-    tx_tail = (uint8_t)(tail + 1u);
-}
 
 int32_t uart_ubrr(uint32_t baud)
 {
@@ -72,22 +44,22 @@ void uart_init(uint32_t baud)
  * boundary); aligning the function keeps the loop on one page. */
 __attribute__((noinline, aligned(256))) uint8_t uart_wait_byte(void)
 {
-    uint8_t tail = rx_tail;
-    while (rx_head == tail) {
+    uint8_t tail = uart_rx_tail;
+    while (uart_rx_head == tail) {
         wdt_reset();
     }
-    uint8_t byte = rx_buf[tail];
-    rx_tail = (uint8_t)(tail + 1u);
+    uint8_t byte = uart_rx_buf[tail];
+    uart_rx_tail = (uint8_t)(tail + 1u);
     return byte;
 }
 
 void uart_tx_put(uint8_t byte)
 {
     uint8_t w = tx_write;
-    while ((uint8_t)(w + 1u) == tx_tail) {
+    while ((uint8_t)(w + 1u) == uart_tx_tail) {
         /* full: the UDRE interrupt drains what was released */
     }
-    tx_buf[w] = byte;
+    uart_tx_buf[w] = byte;
     tx_write = (uint8_t)(w + 1u);
 }
 
@@ -99,10 +71,10 @@ void uart_tx_open(void)
 
 void uart_tx_close(uint8_t code)
 {
-    tx_buf[tx_held] = code;
+    uart_tx_buf[tx_held] = code;
     ATOMIC_BLOCK(ATOMIC_RESTORESTATE)
     {
-        tx_head = tx_write;
+        uart_tx_head = tx_write;
         UCSR0A |= _BV(TXC0); /* writing 1 clears it: it now means "these bytes are out" */
         UCSR0B |= _BV(UDRIE0);
     }
@@ -110,7 +82,7 @@ void uart_tx_close(uint8_t code)
 
 void uart_flush(void)
 {
-    while (tx_tail != tx_head) {
+    while (uart_tx_tail != uart_tx_head) {
     }
     /* Then the shift register. Bounded: QEMU sends at once and may never set TXC. */
     uint32_t spins = F_CPU / current_baud * 4u;
@@ -123,6 +95,6 @@ uint32_t uart_baud(void) { return current_baud; }
 uint16_t uart_rx_overruns(void)
 {
     uint16_t n;
-    ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { n = rx_overruns; }
+    ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { n = uart_rx_lost; }
     return n;
 }

@@ -41,7 +41,8 @@ static frame_status_t rx_end(frame_rx_t *rx, uint8_t started)
     return st;
 }
 
-frame_status_t frame_rx_byte(frame_rx_t *rx, uint8_t byte)
+/* Code bytes, the delimiter, and bytes after an error. */
+static frame_status_t rx_other(frame_rx_t *rx, uint8_t byte)
 {
     if (byte == 0) {
         uint8_t started = rx->n != 0 || rx->left != 0 || rx->zero || rx->status != FRAME_MORE;
@@ -49,13 +50,7 @@ frame_status_t frame_rx_byte(frame_rx_t *rx, uint8_t byte)
         frame_rx_reset(rx, rx->answers); /* raw is kept: the frame is read before the next byte */
         return st;
     }
-    if (rx->status != FRAME_MORE) {
-        return FRAME_MORE;
-    }
-    if (rx->left != 0) {
-        rx->left--;
-        rx_emit(rx, byte);
-    } else {
+    if (rx->status == FRAME_MORE) {
         if (rx->zero) {
             rx_emit(rx, 0); /* the previous block's zero: the frame went on */
         }
@@ -65,54 +60,63 @@ frame_status_t frame_rx_byte(frame_rx_t *rx, uint8_t byte)
     return FRAME_MORE;
 }
 
-static void tx_put(frame_tx_t *tx, uint8_t byte)
+frame_status_t frame_rx_byte(frame_rx_t *rx, uint8_t byte)
 {
-    if (tx->code == 0xFFu) { /* a full block: it ends here without standing for a zero */
-        port_tx_close(0xFFu);
-        port_tx_open();
-        tx->code = 1;
+    if (rx->left != 0 && byte != 0) { /* most bytes: data inside a COBS block */
+        rx->left--;
+        rx_emit(rx, byte);
+        return FRAME_MORE;
     }
-    if (byte == 0) {
-        port_tx_close(tx->code);
-        port_tx_open();
-        tx->code = 1;
-    } else {
-        port_tx_put(byte);
-        tx->code++;
-    }
+    return rx_other(rx, byte);
 }
 
-static void tx_crc_put(frame_tx_t *tx, uint8_t byte)
+/* One byte into the COBS encoder; returns the block's code so far. */
+static uint8_t tx_put(uint8_t code, uint8_t byte)
 {
-    tx->crc = crc32c_update(tx->crc, byte);
-    tx_put(tx, byte);
+    if (code == 0xFFu) { /* a full block: it ends here without standing for a zero */
+        port_tx_close(0xFFu);
+        port_tx_open();
+        code = 1;
+    }
+    if (byte == 0) {
+        port_tx_close(code);
+        port_tx_open();
+        return 1;
+    }
+    port_tx_put(byte);
+    return (uint8_t)(code + 1u);
 }
 
 void frame_tx_begin(frame_tx_t *tx, uint8_t answers, uint8_t type, uint16_t seq, uint8_t len)
 {
+    const uint8_t header[FRAME_HEADER_SIZE] = {type, (uint8_t)seq, (uint8_t)(seq >> 8), len};
     tx->crc = crc32c_update(CRC32C_INIT, answers);
     tx->code = 1;
     port_tx_open();
-    tx_crc_put(tx, type);
-    tx_crc_put(tx, (uint8_t)seq);
-    tx_crc_put(tx, (uint8_t)(seq >> 8));
-    tx_crc_put(tx, len);
+    frame_tx_bytes(tx, header, sizeof header);
 }
 
 void frame_tx_bytes(frame_tx_t *tx, const uint8_t *data, uint8_t n)
 {
+    uint32_t crc = tx->crc;
+    uint8_t code = tx->code;
     while (n-- > 0u) {
-        tx_crc_put(tx, *data++);
+        uint8_t byte = *data++;
+        crc = crc32c_update(crc, byte);
+        code = tx_put(code, byte);
     }
+    tx->crc = crc;
+    tx->code = code;
 }
 
 void frame_tx_end(frame_tx_t *tx)
 {
     uint32_t crc = tx->crc ^ CRC32C_XOROUT;
-    for (uint8_t i = 0; i < 4u; i++) {
-        tx_put(tx, (uint8_t)crc);
+    uint8_t code = tx->code;
+    for (uint8_t i = 0; i < FRAME_CRC_SIZE; i++) {
+        code = tx_put(code, (uint8_t)crc);
         crc >>= 8;
     }
     port_tx_put(0); /* the delimiter, released with the last block */
-    port_tx_close(tx->code);
+    port_tx_close(code);
 }
