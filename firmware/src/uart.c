@@ -45,9 +45,9 @@ void uart_init(uint32_t baud)
 __attribute__((noinline, aligned(256))) uint8_t uart_wait_byte(void)
 {
     uint8_t tail = uart_rx_tail;
-    while (uart_rx_head == tail) {
-        wdt_reset();
-    }
+    do {
+        wdt_reset(); /* on every byte: a board kept busy by a full ring never idles here */
+    } while (uart_rx_head == tail);
     uint8_t byte = uart_rx_buf[tail];
     uart_rx_tail = (uint8_t)(tail + 1u);
     return byte;
