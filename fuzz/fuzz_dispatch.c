@@ -21,10 +21,12 @@ static int well_formed(const uint8_t *frame, uint32_t len)
     for (unsigned answers = 0; answers < 256u; answers++) {
         frame_rx_reset(&rx, (uint8_t)answers);
         frame_status_t st = FRAME_MORE;
-        for (uint32_t i = 0; i < len; i++) {
-            st = frame_rx_byte(&rx, frame[i]);
+        uint32_t done = 0;
+        while (done < len && st == FRAME_MORE) {
+            uint8_t chunk = len - done > 255u ? 255u : (uint8_t)(len - done);
+            done += frame_rx_bytes(&rx, frame + done, chunk, &st);
         }
-        if (st == FRAME_OK) {
+        if (st == FRAME_OK && done == len) {
             return 1;
         }
     }

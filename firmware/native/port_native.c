@@ -54,6 +54,7 @@ void port_tx_close(uint8_t code)
     out_len = out_write;
 }
 
+void port_rx_release(uint8_t n) { (void)n; } /* the bytes are the caller's */
 void port_flush(void) {}
 uint16_t port_rx_buffer(void) { return NATIVE_RX_BUFFER; }
 uint16_t port_rx_overruns(void) { return 0; }
@@ -90,8 +91,11 @@ void vehil_native_power_on(void)
 
 void vehil_native_write(const uint8_t *data, uint32_t len)
 {
-    for (uint32_t i = 0; i < len; i++) {
-        dispatch_byte(data[i]);
+    while (len > 0u) {
+        uint8_t n = len > 255u ? 255u : (uint8_t)len;
+        dispatch_bytes(data, n);
+        data += n;
+        len -= n;
     }
 }
 

@@ -1,5 +1,5 @@
 /* vehil firmware: boots, announces itself, then feeds every received byte to
- * the message core. It never sleeps: QEMU's mega2560 does not wake from
+ * the message core, where they lie in the RX ring. It never sleeps: QEMU's mega2560 does not wake from
  * sleep_cpu(), and a busy loop costs nothing on a dedicated board. */
 #include <avr/interrupt.h>
 #include <avr/wdt.h>
@@ -15,6 +15,8 @@ int main(void)
     sei();
     dispatch_init();
     for (;;) {
-        dispatch_byte(uart_wait_byte());
+        uint8_t n;
+        const uint8_t *bytes = uart_rx_wait(&n);
+        dispatch_bytes(bytes, n);
     }
 }

@@ -10,8 +10,11 @@
 #define UART_TX_SIZE 256u
 
 void uart_init(uint32_t baud);
-/* Waits for the next received byte, keeping the watchdog fed meanwhile. */
-uint8_t uart_wait_byte(void);
+/* Waits for received bytes, keeping the watchdog fed meanwhile; returns where they
+ * lie in the RX ring and how many follow there without a wrap. */
+const uint8_t *uart_rx_wait(uint8_t *n);
+/* Gives the ring back the first n of them. */
+void uart_rx_release(uint8_t n);
 /* The TX ring's side of port.h: append, hold back from a placeholder, release. */
 void uart_tx_open(void);
 void uart_tx_put(uint8_t byte);

@@ -463,6 +463,9 @@ def cmd_profile(args: argparse.Namespace) -> int:
             )
             console.print(profile_report.latency_table(figures["sweep"], args.board))
             console.print(profile_report.throughput_table(figures["sweep"], args.board))
+            if args.board.startswith("simavr"):  # cycle-exact there
+                figures["board_costs"] = profile.board_costs(link)
+                console.print(profile_report.board_cost_table(figures["board_costs"], args.board))
             # At 115200 nothing but the UART limits streaming: its share is simavr's bit count.
             best = max(
                 (

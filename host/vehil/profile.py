@@ -27,6 +27,7 @@ from vehil.errors import VehilError
 from vehil.link import Link
 from vehil.paths import FIRMWARE_ELF
 from vehil.ping import run_ping
+from vehil.protocol import frame as framing
 
 BAUDS_ALL = (9600, 19200, 38400, 57600, 115200, 250000, 500000, 1_000_000, 2_000_000)
 BAUDS_DEFAULT = (115200, 250000, 500000, 1_000_000, 2_000_000)
@@ -110,6 +111,70 @@ def throughput_point(link: Link, window: int, count: int, size: int = 16) -> dic
     }
 
 
+# The UART interrupts' cycles per byte, counted from firmware/src/uart_isr.S: response
+# and vector jump (8), saves, body and restores, RETI (5).
+RX_ISR_CYCLES = 58
+TX_ISR_CYCLES = 48
+BURST_BAUD = 2_000_000
+BURSTS = 12
+BURST_SIZES = (0, 16, 32, 64)  # at least three requests fit the board's RX buffer
+
+
+def board_cost_point(link: Link, size: int, bursts: int = BURSTS) -> dict[str, Any]:
+    """Board cycles per exchange of a `size`-byte PING when the board never waits for the host.
+
+    Bursts of as many PINGs as the board's RX buffer holds, sent at once at 2 Mbaud: they
+    arrive faster than the board answers them, so once the last is in, the board goes from
+    one to the next without waiting and without receive interrupts, and the spacing of the
+    PONG timestamps is its cost per exchange: fetching, decoding and checking the request,
+    handling it, encoding the reply, the TX interrupts that send it. Streaming adds the
+    request's receive interrupts, counted per byte. Cycle-exact on simavr, whatever the host.
+    """
+    assert link.info is not None
+    request = len(framing.encode(0, 1, bytes(size)))
+    reply = len(framing.encode(0, 1, bytes(size + 4)))
+    n = link.info.rx_buffer // request
+    if n < 3:
+        raise ValueError(f"{size}-byte PINGs: fewer than three fit the board's RX buffer")
+    before = link.stats()
+    spacing: list[int] = []
+    for b in range(bursts):
+        payloads = [bytes([1 + (b + i) % 255]) * size for i in range(n)]
+        stamps = [
+            r.fields()["timestamp"]
+            for r in link.pipeline((("PING", {"payload": p}) for p in payloads), window=n)
+        ]
+        # The second half of the burst: every request was in the RX ring by then.
+        spacing += [(y - x) & 0xFFFFFFFF for x, y in zip(stamps[n // 2 :], stamps[n // 2 + 1 :])]
+    after = link.stats()
+    handling = (after["frame_cycles"] - before["frame_cycles"]) / max(
+        1, after["rx_frames"] - before["rx_frames"]
+    )
+    per_exchange = float(np.median(spacing)) + RX_ISR_CYCLES * request
+    wire_cycles = max(request, reply) * 10 * F_CPU  # per baud: divide by it
+    return {
+        "size": size,
+        "request_bytes": request,
+        "reply_bytes": reply,
+        "no_rx_cycles": float(np.median(spacing)),
+        "cycles": per_exchange,
+        "handling_cycles": handling,
+        "rx_isr_cycles": RX_ISR_CYCLES * request,
+        "tx_isr_cycles": TX_ISR_CYCLES * reply,
+        "line_share": {
+            str(baud): min(1.0, wire_cycles / baud / per_exchange) for baud in BAUDS_DEFAULT
+        },
+    }
+
+
+def board_costs(link: Link, sizes: tuple[int, ...] = BURST_SIZES) -> list[dict[str, Any]]:
+    link.set_baud(BURST_BAUD)
+    try:
+        return [board_cost_point(link, size) for size in sizes]
+    finally:
+        link.set_baud(1_000_000)
+
+
 def sweep(
     link: Link,
     bauds: tuple[int, ...],
@@ -173,8 +238,10 @@ def symbol_sizes(prefix: str, elf: Path = FIRMWARE_ELF) -> dict[str, int]:
 
 def frame_bytes(spec: estimators.EstimatorSpec) -> tuple[int, int]:
     """Bytes on the wire of one SAMPLE and its RESULT."""
-    request = 4 * len(spec.inputs) + 8  # index u16, type, seq, CRC, COBS overhead, delimiter
-    reply = 4 * len(spec.outputs) + 11  # + status u8 and cycles u32
+    # A body under 254 bytes: header, CRC, one COBS code byte and the delimiter around it.
+    framing_bytes = framing.HEADER_SIZE + framing.CRC_SIZE + 2
+    request = 4 * len(spec.inputs) + 2 + framing_bytes  # + the sample index u16
+    reply = 4 * len(spec.outputs) + 5 + framing_bytes  # + status u8 and cycles u32
     return request, reply
 
 

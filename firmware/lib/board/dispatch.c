@@ -393,10 +393,16 @@ void dispatch_init(void)
     send_info(&unsolicited);
 }
 
-void dispatch_byte(uint8_t byte)
+void dispatch_bytes(const uint8_t *data, uint8_t len)
 {
-    frame_status_t st = frame_rx_byte(&core.rx, byte);
-    if (st != FRAME_MORE) {
-        end_of_frame(st);
+    while (len > 0u) {
+        frame_status_t st;
+        uint8_t took = frame_rx_bytes(&core.rx, data, len, &st);
+        port_rx_release(took); /* before a long step: the RX ring gets its room back */
+        data += took;
+        len = (uint8_t)(len - took);
+        if (st != FRAME_MORE) {
+            end_of_frame(st);
+        }
     }
 }

@@ -13,7 +13,9 @@
 /* Resets the core and announces the board with an unsolicited INFO (seq 0). */
 void dispatch_init(void);
 
-/* Feeds one received byte; a complete frame is handled before this returns. */
-void dispatch_byte(uint8_t byte);
+/* Feeds received bytes (read where they lie, in the platform's RX buffer); each
+ * complete frame is handled before this returns, once port_rx_release() has given
+ * back the bytes up to its delimiter. */
+void dispatch_bytes(const uint8_t *data, uint8_t len);
 
 #endif

@@ -20,6 +20,8 @@ void port_tx_close(uint8_t code);
 /* Returns once every queued byte has left the UART. */
 void port_flush(void);
 
+/* The first n bytes handed to dispatch_bytes() are done with: the RX buffer may reuse them. */
+void port_rx_release(uint8_t n);
 /* Bytes the RX buffer holds; the host keeps no more than this in flight. */
 uint16_t port_rx_buffer(void);
 /* Bytes dropped because the RX buffer was full, since boot (saturating). */

@@ -60,28 +60,60 @@ static frame_status_t rx_other(frame_rx_t *rx, uint8_t byte)
     return FRAME_MORE;
 }
 
-frame_status_t frame_rx_byte(frame_rx_t *rx, uint8_t byte)
+uint8_t frame_rx_bytes(frame_rx_t *rx, const uint8_t *data, uint8_t len, frame_status_t *st)
 {
-    if (rx->left != 0 && byte != 0) { /* most bytes: data inside a COBS block */
-        rx->left--;
-        rx_emit(rx, byte);
-        return FRAME_MORE;
+    const uint8_t *p = data;
+    const uint8_t *end = data + len;
+    *st = FRAME_MORE;
+    while (p != end) {
+        if (rx->left != 0 && *p != 0 && rx->status == FRAME_MORE) {
+            /* Most bytes: a COBS block's data, taken in one run with the CRC in registers. */
+            uint8_t room = (uint8_t)(FRAME_RAW_MAX - rx->n);
+            if (room == 0) {
+                rx->status = FRAME_OVERSIZE; /* the rest is dropped up to the delimiter */
+                continue;
+            }
+            uint8_t k = rx->left < room ? rx->left : room;
+            if ((uint8_t)(end - p) < k) {
+                k = (uint8_t)(end - p);
+            }
+            uint8_t *dst = rx->raw + rx->n;
+            const uint8_t *stop = p + k;
+            uint32_t crc = rx->crc;
+            while (p != stop && *p != 0) {
+                crc = crc32c_update(crc, *p);
+                *dst++ = *p++;
+            }
+            uint8_t took = (uint8_t)(dst - (rx->raw + rx->n));
+            rx->n = (uint8_t)(rx->n + took);
+            rx->left = (uint8_t)(rx->left - took);
+            rx->crc = crc;
+            continue;
+        }
+        frame_status_t s = rx_other(rx, *p++);
+        if (s != FRAME_MORE) {
+            *st = s;
+            break;
+        }
     }
-    return rx_other(rx, byte);
+    return (uint8_t)(p - data);
 }
 
 /* One byte into the COBS encoder; returns the block's code so far. */
-static uint8_t tx_put(uint8_t code, uint8_t byte)
+static uint8_t tx_block_end(uint8_t code)
+{
+    port_tx_close(code);
+    port_tx_open();
+    return 1;
+}
+
+static inline uint8_t tx_put(uint8_t code, uint8_t byte)
 {
     if (code == 0xFFu) { /* a full block: it ends here without standing for a zero */
-        port_tx_close(0xFFu);
-        port_tx_open();
-        code = 1;
+        code = tx_block_end(0xFFu);
     }
     if (byte == 0) {
-        port_tx_close(code);
-        port_tx_open();
-        return 1;
+        return tx_block_end(code);
     }
     port_tx_put(byte);
     return (uint8_t)(code + 1u);

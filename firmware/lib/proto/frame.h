@@ -42,9 +42,11 @@ typedef struct {
 
 /* Starts a frame that answers a request of type `answers` (0: a request). */
 void frame_rx_reset(frame_rx_t *rx, uint8_t answers);
-/* Feeds one byte; at a delimiter returns the frame's verdict and starts the next
- * frame (answering the same type), else FRAME_MORE. */
-frame_status_t frame_rx_byte(frame_rx_t *rx, uint8_t byte);
+/* Feeds bytes up to and including the first delimiter among them; returns how many it
+ * took. *st is the verdict of the frame that delimiter ended (the next frame then
+ * starts, answering the same type), or FRAME_MORE if there was none. The frame stays
+ * readable in raw until more bytes are fed. */
+uint8_t frame_rx_bytes(frame_rx_t *rx, const uint8_t *data, uint8_t len, frame_status_t *st);
 
 static inline uint8_t frame_type(const frame_rx_t *rx) { return rx->raw[0]; }
 static inline uint16_t frame_seq(const frame_rx_t *rx)

@@ -17,6 +17,7 @@ from vehil.boards.simavr import (
     SimavrBoard,
     SimavrBootloaderBoard,
     SimavrEvBoard,
+    SimavrMegaBoard,
     SimavrRealtimeBoard,
 )
 from vehil.errors import NoPort
@@ -24,6 +25,7 @@ from vehil.errors import NoPort
 VIRTUAL_BOARDS: dict[str, type[Board]] = {
     "simavr": SimavrBoard,
     "simavr-realtime": SimavrRealtimeBoard,
+    "simavr-mega": SimavrMegaBoard,
     "simavr-bootloader": SimavrBootloaderBoard,
     "simavr-ev": SimavrEvBoard,
     "qemu": QemuBoard,

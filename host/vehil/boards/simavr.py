@@ -81,6 +81,17 @@ class SimavrRealtimeBoard(SimavrBoard):
         super().__init__(realtime=True, **options)  # type: ignore[arg-type]
 
 
+class SimavrMegaBoard(SimavrRealtimeBoard):
+    """simavr-realtime behind a model of the Mega's ATmega16U2 USB bridge
+    (transports/protocol_mega16u2.py): replies reach the host on the bridge's 4.1 ms
+    timer, or sooner past 96 bytes, as on a real Mega."""
+
+    name = "simavr-mega"
+
+    def port_url(self, url: str) -> str:
+        return super().port_url(f"mega16u2://{url}")
+
+
 class SimavrEvBoard(SimavrBoard):
     """simavr running the image with seed 001's filters (env offline-ev), which the
     default image leaves out: none keeps a 10 ms step."""
