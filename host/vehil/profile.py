@@ -145,7 +145,8 @@ def board_cost_point(link: Link, size: int, bursts: int = BURSTS) -> dict[str, A
             for r in link.pipeline((("PING", {"payload": p}) for p in payloads), window=n)
         ]
         # The second half of the burst: every request was in the RX ring by then.
-        spacing += [(y - x) & 0xFFFFFFFF for x, y in zip(stamps[n // 2 :], stamps[n // 2 + 1 :])]
+        tail = stamps[n // 2 :]
+        spacing += [(y - x) & 0xFFFFFFFF for x, y in zip(tail, tail[1:], strict=False)]
     after = link.stats()
     handling = (after["frame_cycles"] - before["frame_cycles"]) / max(
         1, after["rx_frames"] - before["rx_frames"]
