@@ -292,6 +292,8 @@ def _finish_run(
     if run.recording is not None:
         md = report.write(series, figures, context, run.recording.parent)
         console.print(f"recording {run.recording}\nreport    {md}")
+    for note in context["log_notes"] or ():
+        console.print(f"[yellow]log:[/] {note}")
     if input_note:
         console.print(f"[bold yellow]input cut short:[/] {input_note}")
     console.print(report.verdict_line(figures))

@@ -101,6 +101,8 @@ def test_a_log_with_a_gap_is_refused_by_line_and_column(tmp_path, capsys) -> Non
     sc.write_text(sc.read_text().replace("[log.columns]", 'on_gap = "split"\n[log.columns]'))
     out = tmp_path / "run"
     assert cli.main([*args, "--out", str(out)]) == 0
+    printed = " ".join(capsys.readouterr().out.split())
+    assert "log: split at 1 gaps longer than max_gap_s" in printed
     md = (out / "report.md").read_text()
     assert "1 duplicated stamps merged (mean), first at line 13, column speed" in md
     assert "- split at 1 gaps longer than max_gap_s: stretches 0-9.9 s, 15-19.9 s" in md
