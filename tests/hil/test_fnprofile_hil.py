@@ -101,7 +101,8 @@ def test_vehil_run_profile_puts_the_flame_graph_in_the_report(tmp_path) -> None:
     short.write_text(scenario.find("sine").read_text().replace("duration = 20.0", "duration = 1.0"))
     assert cli.main(["run", str(short), "--profile", "--out", str(tmp_path)]) == 0
     folder = tmp_path / "profile"
-    for name in ("flame.png", "profile.md", "stacks.collapsed", "profile.speedscope.json"):
+    files = ("flame.png", "flame-median.png", "profile.md", "stacks.collapsed")
+    for name in (*files, "profile.speedscope.json"):
         assert (folder / name).stat().st_size > 0
     assert "![flame graph](profile/flame.png)" in (tmp_path / "report.md").read_text()
     assert "passthrough_step" in (folder / "profile.md").read_text()

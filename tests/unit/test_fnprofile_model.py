@@ -107,7 +107,7 @@ def test_files_for_flame_graph_tools(tmp_path: Path) -> None:
         for s, w in zip(prof["samples"], prof["weights"], strict=True)
     }
     assert stacks == p.collapsed()
-    assert files["flame"].read_bytes()[:4] == b"\x89PNG"
+    assert files["flame"].read_bytes()[:4] == files["flame_median"].read_bytes()[:4] == b"\x89PNG"
     assert "| f | 30 | 30 | 30 | 36 | 51 | 66 | 2 | 2 | 35.3 % |" in files["markdown"].read_text()
 
 
@@ -120,3 +120,10 @@ def test_figures_for_json(tmp_path: Path) -> None:
     assert f["inclusive"] == {"min": 36.0, "median": 51.0, "max": 66.0}
     assert fig["interrupts"]["interrupt USART0_RX"]["max"] == 30.0
     json.dumps(fig)  # plain data
+
+
+def test_the_median_window_and_its_own_stacks(tmp_path: Path) -> None:
+    p = _profile(tmp_path)
+    assert p.median_window == 0  # 70 and 100 cycles: the lower middle
+    assert sum(p.collapsed(1).values()) == 100
+    assert "main;step;f;interrupt USART0_RX;__vector_25" not in p.collapsed(0)

@@ -53,11 +53,11 @@ def write_speedscope(profile: Profile, path: Path, name: str) -> Path:
     return path
 
 
-def _tree(profile: Profile) -> dict:
-    """Nested {name: [cycles per window (mean), children]} from the collapsed stacks."""
+def _tree(profile: Profile, window: int | None) -> dict:
+    """Nested {name: [cycles per window (mean, or of one), children]} from the stacks."""
     root: dict = {}
-    per = profile.windows * profile.per
-    for stack, cycles in profile.collapsed().items():
+    per = (profile.windows if window is None else 1) * profile.per
+    for stack, cycles in profile.collapsed(window).items():
         level = root
         for fn in stack.split(";"):
             node = level.setdefault(fn, [0.0, {}])
@@ -66,15 +66,16 @@ def _tree(profile: Profile) -> dict:
     return root
 
 
-def write_flame_png(profile: Profile, path: Path, title: str) -> Path:
+def write_flame_png(profile: Profile, path: Path, title: str, window: int | None = None) -> Path:
     """A flame graph: root at the bottom, each bar as wide as its function's inclusive
-    cycles (mean per window), library routines and interrupts in their own colours."""
+    cycles (mean per window, or in one window), library routines and interrupts in their
+    own colours."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    tree = _tree(profile)
+    tree = _tree(profile, window)
     total = sum(v[0] for v in tree.values()) or 1.0
     bars: list[tuple[float, int, float, str]] = []
 
@@ -101,7 +102,11 @@ def write_flame_png(profile: Profile, path: Path, title: str) -> Path:
     ax.set_xlim(0, total)
     ax.set_ylim(0, depth)
     ax.set_yticks([])
-    ax.set_xlabel(f"cycles per {profile.what} (mean of {profile.windows * profile.per})")
+    ax.set_xlabel(
+        f"cycles per {profile.what} (mean of {profile.windows * profile.per})"
+        if window is None
+        else f"cycles in {profile.what} {window}"
+    )
     ax.set_title(title, fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
@@ -118,6 +123,12 @@ def write_all(
     folder.mkdir(parents=True, exist_ok=True)
     out = {
         "flame": write_flame_png(profile, folder / "flame.png", title),
+        "flame_median": write_flame_png(
+            profile,
+            folder / "flame-median.png",
+            f"{title}: {profile.what} {profile.median_window}, the median one",
+            profile.median_window,
+        ),
         "collapsed": write_collapsed(profile, folder / "stacks.collapsed"),
         "speedscope": write_speedscope(profile, folder / "profile.speedscope.json", title),
     }

@@ -134,6 +134,12 @@ class Profile:
         return inside
 
     @property
+    def median_window(self) -> int:
+        """The window whose counted cycles are the median: a typical step, as it ran."""
+        order = np.argsort(self.window_cycles, kind="stable")
+        return int(order[(len(order) - 1) // 2])
+
+    @property
     def interrupt_cycles(self) -> np.ndarray:
         """Per window: cycles in interrupts that landed in it (RX/TX, Timer1 overflow)."""
         return self.self_cycles[self._in_interrupt()].sum(axis=0)
@@ -197,10 +203,10 @@ class Profile:
         """`"__udivmoddi4" in profile`: the function ran in some window."""
         return self.function(name) is not None
 
-    def collapsed(self) -> dict[str, int]:
-        """Flame-graph stacks ("a;b;c" -> self cycles), summed over the windows."""
+    def collapsed(self, window: int | None = None) -> dict[str, int]:
+        """Flame-graph stacks ("a;b;c" -> self cycles), summed over the windows (or of one)."""
         out: dict[str, int] = {}
-        totals = self.self_cycles.sum(axis=1)
+        totals = self.self_cycles.sum(axis=1) if window is None else self.self_cycles[:, window]
         for i in np.flatnonzero(totals):
             out[";".join(self.stack(int(i)))] = int(totals[i])
         return out

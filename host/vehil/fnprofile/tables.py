@@ -128,7 +128,13 @@ def markdown(
     out = [f"## {title}", ""]
     out += [f"{line}  " for line in summary_lines(profile, result_cycles)] + [""]
     if png:
-        out += [f"![flame graph]({png})", ""]
+        out += [
+            f"![flame graph, the mean {profile.what}]({png})",
+            "",
+            f"![flame graph, {profile.what} {profile.median_window} (the median one)]"
+            f"({png.replace('.png', '-median.png')})",
+            "",
+        ]
     out.append("| " + " | ".join(FLAT_HEADER) + " |")
     out.append("|" + "---|" * len(FLAT_HEADER))
     out += ["| " + " | ".join(r) + " |" for r in flat_rows(profile, limit)]
