@@ -83,15 +83,19 @@ def test_a_users_test_asserts_on_functions(profile_steps) -> None:  # noqa: ANN0
 
 
 def test_the_link_frame_path_per_ping(tmp_path) -> None:  # noqa: ANN001
+    from vehil.protocol.frame import encode
+    from vehil.protocol.schema import SCHEMA
+
     frames = collect.pings(size=16, count=30, folder=tmp_path / "frame")
-    assert frames.windows == 30
-    crc = frames.function("crc16")
-    assert crc is not None and (crc.calls == 2).all()  # the request checked, the reply made
+    assert frames.windows == 30  # one window a PING: the frame's handling and its reply
     whole = collect.pings(size=16, count=30, what="exchange", folder=tmp_path / "exchange")
-    rx = whole.function("__vector_25")  # USART0_RX: one interrupt a received byte
-    assert rx is not None and int(rx.calls[0]) == 30 * 22  # 16 + type, seq, CRC, COBS, 0x00
+    # one receive interrupt a byte of the request on the wire
+    request = encode(SCHEMA.messages["PING"].type, 1, bytes(16))
+    assert whole.interrupt_entries()["interrupt USART0_RX"].tolist() == [30 * len(request)]
     # everything the frame path does happens in the exchange too
     assert whole.window_cycles[0] / 30 > np.median(frames.window_cycles)
+    idle = whole.function(collect.IDLE_FUNCTION)  # the firmware's wait for bytes
+    assert idle is not None and idle.self[0] > 0
 
 
 def test_vehil_run_profile_puts_the_flame_graph_in_the_report(tmp_path) -> None:  # noqa: ANN001

@@ -82,6 +82,9 @@ def test_interrupts_are_counted_apart(tmp_path: Path) -> None:
     p = _profile(tmp_path)
     assert p.interrupt_cycles.tolist() == [0, 30]
     assert {k: v.tolist() for k, v in p.interrupts().items()} == {"interrupt USART0_RX": [0, 30]}
+    assert {k: v.tolist() for k, v in p.interrupt_entries().items()} == {
+        "interrupt USART0_RX": [0, 1]
+    }
 
 
 def test_collapsed_stacks(tmp_path: Path) -> None:

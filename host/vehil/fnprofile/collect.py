@@ -2,7 +2,7 @@
 
 Windows: "step" (every estimator step: the message core's call of the step, with
 everything it calls and every interrupt that lands in it), "frame" (the message core's
-handling of each frame: decode, dispatch, reply encoded and queued), "exchange" (the
+handling of each complete frame: dispatch, reply encoded and queued), "exchange" (the
 whole firmware between two cuts, for N PING exchanges: RX and TX interrupts, bytes
 into the frame buffer, the frame path) and "run" (the whole firmware, the whole run)."""
 
@@ -25,7 +25,7 @@ from vehil.fnprofile.elfmap import ElfMap, instruction_words
 from vehil.fnprofile.model import Profile
 
 FRAME_FUNCTION = "end_of_frame"  # firmware/lib/board/dispatch.c
-IDLE_FUNCTION = "uart_wait_byte"  # firmware/src/uart.c: the main loop's wait for a byte
+IDLE_FUNCTION = "uart_rx_wait"  # firmware/src/uart.c: the main loop's wait for bytes
 
 
 def _profilable(cls: type[Board]) -> bool:

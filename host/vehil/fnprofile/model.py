@@ -156,6 +156,14 @@ class Profile:
             out[name] = out.get(name, 0) + self.self_cycles[i]
         return out
 
+    def interrupt_entries(self) -> dict[str, np.ndarray]:
+        """Per interrupt vector: how often it was entered in each window."""
+        out: dict[str, np.ndarray] = {}
+        for i in np.flatnonzero(self.func < 0):
+            name = self.node_name(int(i))
+            out[name] = out.get(name, 0) + self.calls[i]
+        return out
+
     def function_stats(self) -> list[FunctionStats]:
         """Per function: self and inclusive cycles and calls in each window; hottest first.
         Inclusive counts a node once however often the function is on its path."""
