@@ -151,13 +151,16 @@ def codec_row(kind: str, rate: float, faults: int, max_s: float, seed: int = 1) 
     row = CampaignRow(CODEC, kind, rate)
     rng = random.Random(seed)
     faulty = ByteFaults({kind: rate}, seed)
-    decoder = framing.StreamDecoder()
-    pong = SCHEMA.messages["PONG"]
+    ping, pong = SCHEMA.messages["PING"], SCHEMA.messages["PONG"]
+    # As the link does: only the seq in flight answers a request (a PING), whose type the
+    # reply's CRC must cover.
+    decoder = framing.StreamDecoder(answers=lambda seq: ping.type if seq == sent.seq else 0)
     for _ in row.until(faults, max_s):
         body = pong.pack(timestamp=rng.getrandbits(32), payload=rng.randbytes(rng.randint(1, 32)))
-        sent = framing.Frame(pong.type, row.frames & 0xFF, body)
+        sent = framing.Frame(pong.type, row.frames & framing.SEQ_MAX, body)
+        wire = framing.encode(sent.type, sent.seq, body, answers=ping.type)
         before = faulty.counts.total()
-        got = decoder.feed(faulty.apply(framing.encode(sent.type, sent.seq, body), "from board"))
+        got = decoder.feed(faulty.apply(wire, "from board"))
         row.count(faulty.counts.total() - before, sent in got, sum(f != sent for f in got))
     return row
 
