@@ -14,8 +14,8 @@ volatile uint8_t uart_tx_buf[UART_TX_SIZE];
 volatile uint8_t uart_tx_head; /* released bytes end here */
 volatile uint8_t uart_tx_tail; /* advanced by the UDRE interrupt */
 
-static uint8_t tx_write; /* the next byte appended goes here */
-static uint8_t tx_held;  /* the placeholder */
+uint8_t uart_tx_write;  /* the next byte appended goes here */
+static uint8_t tx_held; /* the placeholder */
 static uint32_t current_baud;
 
 int32_t uart_ubrr(uint32_t baud)
@@ -57,19 +57,9 @@ __attribute__((noinline, aligned(256))) const uint8_t *uart_rx_wait(uint8_t *n)
 
 void uart_rx_release(uint8_t n) { uart_rx_tail = (uint8_t)(uart_rx_tail + n); }
 
-void uart_tx_put(uint8_t byte)
-{
-    uint8_t w = tx_write;
-    while ((uint8_t)(w + 1u) == uart_tx_tail) {
-        /* full: the UDRE interrupt drains what was released */
-    }
-    uart_tx_buf[w] = byte;
-    tx_write = (uint8_t)(w + 1u);
-}
-
 void uart_tx_open(void)
 {
-    tx_held = tx_write;
+    tx_held = uart_tx_write;
     uart_tx_put(0);
 }
 
@@ -78,7 +68,7 @@ void uart_tx_close(uint8_t code)
     uart_tx_buf[tx_held] = code;
     ATOMIC_BLOCK(ATOMIC_RESTORESTATE)
     {
-        uart_tx_head = tx_write;
+        uart_tx_head = uart_tx_write;
         UCSR0A |= _BV(TXC0); /* writing 1 clears it: it now means "these bytes are out" */
         UCSR0B |= _BV(UDRIE0);
     }

@@ -17,8 +17,23 @@ const uint8_t *uart_rx_wait(uint8_t *n);
 void uart_rx_release(uint8_t n);
 /* The TX ring's side of port.h: append, hold back from a placeholder, release. */
 void uart_tx_open(void);
-void uart_tx_put(uint8_t byte);
 void uart_tx_close(uint8_t code);
+
+/* The TX ring (uart.c; the UDRE interrupt in uart_isr.S advances the tail). Appending
+ * is inline: every byte of every reply goes through it. */
+extern volatile uint8_t uart_tx_buf[UART_TX_SIZE];
+extern volatile uint8_t uart_tx_tail;
+extern uint8_t uart_tx_write;
+
+static inline void uart_tx_put(uint8_t byte)
+{
+    uint8_t w = uart_tx_write;
+    while ((uint8_t)(w + 1u) == uart_tx_tail) {
+        /* full: the UDRE interrupt drains what was released */
+    }
+    uart_tx_buf[w] = byte;
+    uart_tx_write = (uint8_t)(w + 1u);
+}
 /* Waits until the last released byte has been shifted out. */
 void uart_flush(void);
 uint32_t uart_baud(void);
