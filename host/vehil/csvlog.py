@@ -148,13 +148,13 @@ def read_columns(
         index.setdefault(name, j)
         index.setdefault(cells[j], j)
 
-    def find(name: str, what: str) -> int:
+    def find(name: str, what: str, hint: str = "") -> int:
         if name not in index:
             shown = ", ".join(repr(n) for n, _ in parsed[:40])
-            raise LogError(f"{path}: no {what} {name!r}; columns: {shown}")
+            raise LogError(f"{path}: no {what} {name!r}{hint}; columns: {shown}")
         return index[name]
 
-    jt = find(time, "time column (set [log] time)")
+    jt = find(time, "time column", " (set [log] time, or a preset)")
     cols = {name: find(name, "column") for name in wanted}
     n = len(body)
     t = np.full(n, np.nan)

@@ -57,7 +57,10 @@ def test_a_csv_log_is_resampled_onto_the_sample_grid(tmp_path) -> None:  # noqa:
         ),
         ("t [s],speed [1]\n0,1\n0.1,fast\n", r"line 3, column speed: 'fast' is not a number"),
         ("t [s],speed [1]\n0,1\n0.1,inf\n", r"line 3, column speed: inf is not a finite number"),
-        ("time [s],speed [1]\n0,1\n0.1,2\n", r"no time column \(set \[log\] time\) 't'"),
+        (
+            "time [s],speed [1]\n0,1\n0.1,2\n",
+            r"no time column 't' \(set \[log\] time, or a preset\); columns: 'time', 'speed'",
+        ),
         ("t,speed [1]\n0,1\n0.1,2\n", r"time column 't' has no unit: write it in the header"),
         ("t [s],speed [1]\n0,1\n0.2,2\n0.1,3\n", r"line 4, column speed: time 0.1 s goes back"),
         ("t [s],speed [1]\n0,1\n-,2\n", r"column speed has 1 samples with a value"),
