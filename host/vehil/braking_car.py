@@ -11,7 +11,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass, fields
 
-from vehil.estimators.base import Param
+from vehil.spec import Param
 
 G = 9.81  # m/s²
 

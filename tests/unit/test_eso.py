@@ -7,8 +7,8 @@ from scipy import signal
 from vehil import plants
 from vehil.estimators import eso, kfui
 from vehil.estimators._accel_conditioning import Channel, _HighPass
-from vehil.estimators._quarter_car import NOMINAL
 from vehil.estimators._suspension_control import PredictiveController
+from vehil.models.quarter_car import NOMINAL
 from vehil.papers import eso as paper
 
 

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from vehil import plants
-from vehil.estimators._quarter_car import NOMINAL
+from vehil.models.quarter_car import NOMINAL
 from vehil.plants.quarter_car import QuarterCarLoop, simulate_with
 
 QUIET = {"noise_var": 0.0, "bias_lo": 0.0, "bias_hi": 0.0}

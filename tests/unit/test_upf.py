@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from vehil import plants
-from vehil.estimators import _ev4wd_model as ev
 from vehil.estimators import upf
+from vehil.models import ev4wd as ev
 
 S1 = {"manoeuvre": 0, "speed": 80.0, "mu": 0.85, "dlc_offset": 3.5, "dlc_length": 20.0}
 

@@ -6,7 +6,7 @@
 #include "proto/messages.h"
 #include "proto/wire.h"
 
-/* Note §5.2's vehicle, as in _ev4wd_model.py. */
+/* Note §5.2's vehicle, as in host/vehil/models/ev4wd.py. */
 #define M_VEH 1400.0f
 #define I_Z 1900.0f
 #define L_F 1.10f

@@ -1,5 +1,5 @@
 /* Seed 001's distributed-drive EV model that ev_ekf and ev_ukf share, float32
- * (host: estimators/_ev4wd_model.py, which lists each constant's source).
+ * (host: host/vehil/models/ev4wd.py, which lists each constant's source).
  * x = [v_x, v_y, γ, F̃_1y..F̃_4y] (wheels FL, FR, RL, RR); u = δ, F_ix, F_z,i;
  * y = [a_x, a_y, γ, ω_1..ω_4]. ẋ from note eqs. (1)-(7), (20); y from (5), (29).
  *

@@ -19,8 +19,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vehil.estimators._quarter_car import QuarterCar
 from vehil.estimators.base import Param
+from vehil.models.quarter_car import QuarterCar
 
 PARAMS = (
     Param("active", "1", q=0, default=1, lo=0, hi=1, doc="0: passive (u = 0)"),

@@ -11,64 +11,15 @@ int32 with `q` fractional bits (Q(31-q).q) for that signal in FIXED mode.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Protocol
 
 import numpy as np
 
+from vehil.spec import INT32_RANGE, Param, Signal, resolve_params
+
 MODES = ("F32", "FIXED")
-_INT32 = (-(2**31), 2**31 - 1)
-
-
-@dataclass(frozen=True)
-class Signal:
-    """One input or output: its name, unit, fixed-point format and meaning."""
-
-    name: str
-    unit: str
-    q: int = 16  # fractional bits in FIXED mode
-    doc: str = ""
-
-    @property
-    def lsb(self) -> float:
-        return 2.0**-self.q
-
-    @property
-    def fixed_range(self) -> tuple[float, float]:
-        return _INT32[0] * self.lsb, _INT32[1] * self.lsb
-
-
-@dataclass(frozen=True)
-class Param(Signal):
-    """A configuration value, with its default and the range the board accepts."""
-
-    default: float = 0.0
-    lo: float = -math.inf
-    hi: float = math.inf
-
-    def check(self, value: float) -> str | None:
-        if not math.isfinite(value) or not self.lo <= value <= self.hi:
-            return f"{self.name} = {value:g} {self.unit} is outside [{self.lo:g}, {self.hi:g}]"
-        return None
-
-
-def resolve_params(
-    owner: str, params: Sequence[Param], given: Mapping[str, float]
-) -> dict[str, float]:
-    """Defaults overridden by `given`; raises ValueError naming each unknown or bad one."""
-    known = {p.name: p for p in params}
-    unknown = sorted(set(given) - set(known))
-    if unknown:
-        raise ValueError(
-            f"{owner} has no parameter {', '.join(unknown)} (it has: {', '.join(known) or 'none'})"
-        )
-    values = {p.name: float(given.get(p.name, p.default)) for p in params}
-    problems = [m for p in params if (m := p.check(values[p.name]))]
-    if problems:
-        raise ValueError("; ".join(problems))
-    return values
 
 
 class Reference(Protocol):
@@ -86,7 +37,7 @@ def encode_values(
         return x.astype("<f4").tobytes()
     q = np.array([s.q for s in signals], dtype=np.float64)
     scaled = np.rint(x * np.exp2(q))
-    return np.clip(scaled, *_INT32).astype("<i4").tobytes()
+    return np.clip(scaled, *INT32_RANGE).astype("<i4").tobytes()
 
 
 def decode_values(data: bytes, signals: Sequence[Signal], mode: str) -> np.ndarray:

@@ -31,10 +31,10 @@ import numpy as np
 from vehil.estimators import register
 from vehil.estimators._accel_conditioning import Channel
 from vehil.estimators._accel_conditioning import params as conditioning_params
-from vehil.estimators._quarter_car import QuarterCar, model_params, nominal
 from vehil.estimators._suspension_control import PARAMS as CONTROL_PARAMS
 from vehil.estimators._suspension_control import PredictiveController
 from vehil.estimators.base import EstimatorSpec, Param, Signal
+from vehil.models.quarter_car import QuarterCar, model_params, nominal
 
 VARIANT_A, VARIANT_B = 0, 1
 

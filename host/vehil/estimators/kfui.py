@@ -21,10 +21,10 @@ from scipy.linalg import expm
 
 from vehil.estimators import register
 from vehil.estimators._accel_conditioning import params as conditioning_params
-from vehil.estimators._quarter_car import model_params, nominal
 from vehil.estimators._suspension_control import PARAMS as CONTROL_PARAMS
 from vehil.estimators.base import EstimatorSpec, Param
 from vehil.estimators.eso import INPUTS, OUTPUTS, T_PARAM, Ecu, Measured
+from vehil.models.quarter_car import model_params, nominal
 
 
 class KfUi:

@@ -1,6 +1,6 @@
 """Seed 001: EKF, UKF and the unscented particle filter on the 7-state EV model.
 
-All three share the model of `_ev4wd_model` (note §2.9-2.10), its input
+All three share the model of `models/ev4wd.py` (note §2.9-2.10), its input
 preprocessing, Q, P_0 and R: fixed, or adaptive by (66)-(69) (`adaptive`). A step
 takes the sensors of sample k: it predicts from the last estimate with the last
 inputs u_{k-1} (31), then corrects with y_k (32), and outputs the corrected state
@@ -40,9 +40,9 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from vehil.estimators import _ev4wd_model as ev
 from vehil.estimators import register
 from vehil.estimators.base import EstimatorSpec, Param
+from vehil.models import ev4wd as ev
 
 NOT_FINITE = 0x02  # STATUS_NOT_FINITE
 SINGULAR = 0x04  # STATUS_SINGULAR

@@ -22,8 +22,8 @@ from rich.console import Console
 from rich.table import Table
 
 from vehil import plants, scenario
-from vehil.estimators import _ev4wd_model as ev
 from vehil.estimators import upf
+from vehil.models import ev4wd as ev
 
 KEY = "upf"
 TITLE = "UPF vs UKF vs EKF, adaptive R, distributed-drive EV (seed 001)"

@@ -25,9 +25,9 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from vehil.estimators.base import Param, Signal
 from vehil.plants import register
 from vehil.plants.base import PlantSpec, Trace
+from vehil.spec import Param, Signal
 
 G = 9.81
 ACCEL_LAG_S = 0.15

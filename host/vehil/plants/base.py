@@ -20,7 +20,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from vehil.csvlog import LogError, read_csv
-from vehil.estimators.base import Param, Signal, resolve_params
+from vehil.spec import Param, Signal, resolve_params
 
 
 @dataclass

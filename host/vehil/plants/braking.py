@@ -32,9 +32,9 @@ import numpy as np
 from scipy import signal as sps
 
 from vehil.braking_car import CAR_PARAMS, SURFACE_DOC, SURFACES, Car
-from vehil.estimators.base import Param, Signal
 from vehil.plants import register
 from vehil.plants.base import PlantSpec, Trace
+from vehil.spec import Param, Signal
 
 TEETH = 48
 DAQ_HZ = 10_000.0

@@ -1,7 +1,7 @@
 """A distributed-drive EV with four in-wheel motors, the ground truth of seed 001.
 
 The vehicle and tire numbers are note §5.2's suggestions, shared with the filters
-(estimators/_ev4wd_model.py, where each is listed); the paper gives none (note §0.2)
+(models/ev4wd.py, where each is listed); the paper gives none (note §0.2)
 and used CarSim. This plant is richer than the filters' 7-state model (note §8.2):
 - planar body v_x, v_y, γ plus position and heading for the driver; four wheel
   rotations I_w ω̇_i = T_i - R F_ix driven (and braked: regenerative) by the motors;
@@ -37,10 +37,10 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from vehil.estimators import _ev4wd_model as ev
-from vehil.estimators.base import Param, Signal
+from vehil.models import ev4wd as ev
 from vehil.plants import register
 from vehil.plants.base import PlantSpec, Trace
+from vehil.spec import Param, Signal
 
 DT = 1e-3
 V_FLOOR = 3.0  # m/s: slip-ratio denominator floor

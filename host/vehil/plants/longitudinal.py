@@ -52,9 +52,9 @@ from typing import Any
 import numpy as np
 from scipy.interpolate import CubicSpline
 
-from vehil.estimators.base import Param, Signal
 from vehil.plants import register
 from vehil.plants.base import FileInput, PlantSpec, Trace
+from vehil.spec import Param, Signal
 
 # Table 1 and note §1.3.
 M, R_W, R_FD, K_B, I_EI, CDA, F_ROLL = 1250.0, 0.298, 4.1, 540.0, 0.16, 0.48, 0.015

@@ -26,10 +26,10 @@ from typing import Any
 
 import numpy as np
 
-from vehil.estimators._quarter_car import NOMINAL, QuarterCar
-from vehil.estimators.base import Param, Signal
+from vehil.models.quarter_car import NOMINAL, QuarterCar
 from vehil.plants import register
 from vehil.plants.base import FileInput, PlantSpec, Trace
+from vehil.spec import Param, Signal
 
 ISO_GD_N0 = 16e-6  # m³: class A's G_d(n0) at n0 = 0.1 cycle/m; each class is 4x the last
 ISO_N0 = 0.1  # cycle/m

@@ -11,9 +11,9 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from vehil.estimators.base import Param, Signal
 from vehil.plants import register
 from vehil.plants.base import PlantSpec, Trace
+from vehil.spec import Param, Signal
 
 
 def _simulate(p: Mapping[str, float], duration: float, T: float, seed: int) -> Trace:

@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from vehil.estimators.base import Param
+from vehil.spec import Param
 
 G = 9.81
 

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vehil.estimators.base import Param, Signal
+from vehil.spec import Param, Signal
 
 # Note §5.2 [ASSUME] values.
 M = 1400.0  # kg
