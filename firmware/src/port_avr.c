@@ -70,7 +70,6 @@ uint32_t port_cycles_per_second(void) { return F_CPU; }
 
 void port_rx_release(uint8_t n) { uart_rx_release(n); }
 void port_tx_open(void) { uart_tx_open(); }
-void port_tx_put(uint8_t byte) { uart_tx_put(byte); }
 void port_tx_close(uint8_t code) { uart_tx_close(code); }
 
 void port_flush(void) { uart_flush(); }

@@ -63,6 +63,8 @@ def build() -> Path:
         "-fno-sanitize-recover=all",
         "-I",
         str(PROJECT_ROOT / "firmware" / "lib"),
+        "-I",
+        str(PROJECT_ROOT / "firmware" / "native"),  # the host's port_tx.h
         "-o",
         str(exe),
         str(HARNESS),

@@ -15,8 +15,9 @@ uint32_t port_cycles_per_second(void);
  * placeholder and lets everything appended so far go out. One placeholder at a time;
  * appending waits while the buffer is full. */
 void port_tx_open(void);
-void port_tx_put(uint8_t byte);
 void port_tx_close(uint8_t code);
+/* port_tx_put(byte) comes from the platform's port_tx.h (firmware/src, firmware/native),
+ * so the AVR's can be inline: every byte of every reply goes through it. */
 /* Returns once every queued byte has left the UART. */
 void port_flush(void);
 

@@ -1,6 +1,7 @@
 #include "proto/frame.h"
 
 #include "board/port.h"
+#include "port_tx.h"
 #include "proto/crc32c.h"
 
 void frame_rx_reset(frame_rx_t *rx, uint8_t answers)

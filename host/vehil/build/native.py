@@ -40,8 +40,7 @@ def build_native(*, verbose: bool = False) -> Path:
         "-DVEHIL_EV_FILTERS",  # every estimator, those left out of the AVR image too
         "-fPIC",
         "-shared",
-        "-I",
-        str(_SOURCE_DIRS[0]),
+        *(arg for d in _SOURCE_DIRS for arg in ("-I", str(d))),
         "-o",
         str(NATIVE_LIB),
         *map(str, sources),
