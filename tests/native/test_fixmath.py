@@ -129,3 +129,40 @@ def test_fx_mul16_gives_the_bits_of_fx_mul_rs(native_lib) -> None:  # noqa: ANN0
                 want, got = ctypes.c_uint8(0), ctypes.c_uint8(0)
                 assert m16(a, b, s, ctypes.byref(got)) == rs(a, b, s, ctypes.byref(want)), (a, b, s)
                 assert got.value == want.value, (a, b, s)
+
+
+def test_division_through_a_reciprocal_keeps_its_stated_error(native_lib) -> None:  # noqa: ANN001
+    """fx_recip and fx_div_by (k = a / b as ACC's gains take it: Q28 / Q24 -> Q30) against
+    exact quotients: relative error < 5e-7, or under one unit for small results; saturated
+    past int32, flagged."""
+
+    class Recip(ctypes.Structure):
+        _fields_ = (("y", ctypes.c_int32), ("n", ctypes.c_uint8))
+
+    recip, div = native_lib.fx_recip, native_lib.fx_div_by
+    recip.argtypes, recip.restype = [ctypes.c_int32], Recip
+    div.argtypes = [ctypes.c_int32, ctypes.c_uint8, Recip, ctypes.c_uint8, ctypes.c_uint8]
+    div.argtypes += [ctypes.POINTER(ctypes.c_uint8)]
+    div.restype = ctypes.c_int32
+    rng = np.random.default_rng(7)
+    bs = [1, 2, 3, 2**30, 2**31 - 1] + [
+        int(rng.integers(1, 2 ** int(k))) for k in rng.integers(1, 32, 2000)
+    ]
+    for b in bs:
+        r = recip(b)
+        for a in (
+            0,
+            1,
+            -1,
+            2**31 - 1,
+            -(2**31),
+            int(rng.integers(-(2**31), 2**31)) >> int(rng.integers(0, 31)),
+        ):
+            status = ctypes.c_uint8(0)
+            got = div(a, 28, r, 24, 30, ctypes.byref(status))
+            exact = a * 2**26 / b
+            if abs(exact) < 2**31 - 1:
+                assert abs(got - exact) <= max(1.0, 5e-7 * abs(exact)), (a, b)
+                assert status.value == 0
+            else:
+                assert got == (2**31 - 1 if exact > 0 else -(2**31)) and status.value & 0x01

@@ -107,11 +107,14 @@ static void reset_q(acc_kf_params_q_t *p, acc_kf_q_t *s)
 
 static int32_t lpf_q(const acc_kf_params_q_t *p, acc_kf_q_t *s, int32_t a_m, uint8_t *st)
 {
-    /* Eq. 4b: Q29 coefficients times Q24 samples, summed in 64 bits, rounded once. */
-    int64_t acc = (int64_t)p->b[0] * a_m + (int64_t)p->b[1] * s->am[0] +
-                  (int64_t)p->b[2] * s->am[1] + (int64_t)p->c[0] * s->af[0] +
-                  (int64_t)p->c[1] * s->af[1];
-    int32_t a_f = fx_sat(fx_round_shift(acc, 29), st);
+    /* Eq. 4b: Q29 coefficients times Q24 samples, each product rounded to Q24. */
+    int32_t a_f = fx_add(fx_add(fx_mul_rs(p->b[0], a_m, 29, st), fx_mul_rs(p->b[1], s->am[0], 29, st),
+                                st),
+                         fx_add(fx_mul_rs(p->b[2], s->am[1], 29, st),
+                                fx_add(fx_mul_rs(p->c[0], s->af[0], 29, st),
+                                       fx_mul_rs(p->c[1], s->af[1], 29, st), st),
+                                st),
+                         st);
     s->am[1] = s->am[0];
     s->am[0] = a_m;
     s->af[1] = s->af[0];
@@ -124,10 +127,10 @@ static uint8_t step_q(acc_kf_state_t *st, const uint8_t *in, uint8_t *out)
     const acc_kf_params_q_t *p = &st->u.q.p;
     acc_kf_q_t *s = &st->u.q.s;
     int32_t a_m = get_i32(in);                         /* Q24 */
-    int64_t w_sum = (int64_t)get_i32(in + 4) + get_i32(in + 8); /* Q16 */
-    uint8_t braking = get_i32(in + 12) != 0;
     uint8_t status = 0;
-    int32_t v_m = fx_sat(fx_round_shift(w_sum * p->r_w_half, 20), &status); /* Q20, eq. 3 */
+    int32_t w_sum = fx_add(get_i32(in + 4), get_i32(in + 8), &status); /* Q16 */
+    uint8_t braking = get_i32(in + 12) != 0;
+    int32_t v_m = fx_mul(w_sum, 16, p->r_w_half, 24, 20, &status); /* Q20, eq. 3 */
     if (!st->started) {
         st->started = 1;
         s->v = v_m;
@@ -153,8 +156,14 @@ static uint8_t step_q(acc_kf_state_t *st, const uint8_t *in, uint8_t *out)
         int32_t cm11 = fx_mul(c, 30, m11, 28, 28, &status);
         int32_t cm12 = fx_mul(c, 30, m12, 28, 28, &status);
         int32_t S = fx_add(fx_mul(c, 30, cm11, 28, 24, &status), p->R, &status); /* Q24 */
-        int32_t k1 = fx_div(cm11, 28, S, 24, 30, &status); /* Q30 */
-        int32_t k2 = fx_div(cm12, 28, S, 24, 30, &status); /* Q30, 1/s */
+        int32_t k1 = 0, k2 = 0; /* no update if S is not positive (it is R > 0 or more) */
+        if (S > 0) {
+            fx_recip_t inv_s = fx_recip(S);
+            k1 = fx_div_by(cm11, 28, inv_s, 24, 30, &status); /* Q30 */
+            k2 = fx_div_by(cm12, 28, inv_s, 24, 30, &status); /* Q30, 1/s */
+        } else {
+            status |= STATUS_SINGULAR;
+        }
         int32_t e = fx_sub(v_m, fx_mul(c, 30, v_pred, 20, 20, &status), &status); /* Q20 */
         s->v = fx_add(v_pred, fx_mul(k1, 30, e, 20, 20, &status), &status);
         s->a0 = fx_add(b_pred, fx_mul(k2, 30, e, 20, 24, &status), &status);
@@ -164,7 +173,8 @@ static uint8_t step_q(acc_kf_state_t *st, const uint8_t *in, uint8_t *out)
         int32_t a_f = lpf_q(p, s, a_m, &status);
         s->w2_prev = fx_mul(p->rbar, 30, fx_sub(a_f, s->af[1], &status), 24, 24, &status);
         if (braking && s->v > p->v_guard) {
-            int32_t slip = fx_sub(ONE_Q30, fx_div(v_m, 20, s->v, 20, 30, &status), &status);
+            int32_t slip = /* s->v > v_guard > 0 */
+                fx_sub(ONE_Q30, fx_div_by(v_m, 20, fx_recip(s->v), 20, 30, &status), &status);
             int32_t s_max = ACC_KF_S_MAX_Q30;
             if (slip < 0 || slip > s_max) {
                 status |= STATUS_CLAMPED;

@@ -72,6 +72,79 @@ int32_t fx_div(int32_t a, uint8_t qa, int32_t b, uint8_t qb, uint8_t q_out, uint
     return negative ? (int32_t)(-(int64_t)q) : (int32_t)q;
 }
 
+/* 2 / (1 + k / 32) in Q14, k = 0..32: 1/x on x in [1/2, 1]. */
+static const uint16_t recip_table[33] = {
+    32768, 31775, 30840, 29959, 29127, 28340, 27594, 26887, 26214, 25575, 24966,
+    24385, 23831, 23302, 22795, 22310, 21845, 21400, 20972, 20560, 20165, 19784,
+    19418, 19065, 18725, 18396, 18079, 17772, 17476, 17190, 16913, 16644, 16384,
+};
+
+/* Shifts v (> 0) until bit 30 is its top bit; returns by how much to the left (-1: 2^31,
+ * the magnitude of INT32_MIN, shifted right). Whole bytes first. */
+static int8_t normalize30(uint32_t *v)
+{
+    int8_t n = 0;
+    if (*v & 0x80000000u) {
+        *v >>= 1;
+        return -1;
+    }
+    while (!(*v & 0xff800000u)) {
+        *v <<= 8;
+        n = (int8_t)(n + 8);
+    }
+    while (!(*v & 0x40000000u)) {
+        *v <<= 1;
+        n++;
+    }
+    return n;
+}
+
+fx_recip_t fx_recip(int32_t b)
+{
+    uint32_t x = (uint32_t)b; /* x 2^-31 in [1/2, 1) once normalised */
+    uint8_t n = (uint8_t)normalize30(&x); /* b <= INT32_MAX: a left shift */
+    uint8_t k = (uint8_t)((uint8_t)(x >> 24) >> 1) & 31u; /* (x >> 25) by bytes */
+    uint16_t f = (uint16_t)((x >> 8) >> 1);                /* the next 16 bits */
+    uint16_t lo = recip_table[k], d = (uint16_t)(lo - recip_table[k + 1u]);
+    int32_t y = (int32_t)(((uint32_t)lo << 16 >> 1) - ((uint32_t)d * f >> 1)); /* Q29 */
+    uint8_t st = 0; /* nothing here can saturate: x y is within 1e-3 of 1 */
+    int32_t t = fx_mul_rs((int32_t)x, y, 31, &st);            /* x y, Q29 */
+    y = fx_mul_rs(y, ((int32_t)1 << 30) - t, 29, &st);       /* y (2 - x y) */
+    return (fx_recip_t){.y = y, .n = n};
+}
+
+int32_t fx_div_by(int32_t a, uint8_t qa, fx_recip_t r, uint8_t qb, uint8_t q_out,
+                  uint8_t *status)
+{
+    if (a == 0) {
+        return 0;
+    }
+    uint32_t m = a < 0 ? (uint32_t)0 - (uint32_t)a : (uint32_t)a;
+    int8_t k = normalize30(&m);
+    /* |a| / b = q 2^(n - k - 29) with q = m y 2^-31 in [2^28, 2^30] */
+    uint32_t q = (uint32_t)fx_mul_rs((int32_t)m, r.y, 31, status);
+    int16_t sh = (int16_t)((int16_t)r.n - k - 29 + qb - qa + q_out);
+    if (sh >= 0) {
+        if (sh > 30 || q > ((uint32_t)FX_MAX >> sh)) {
+            *status |= STATUS_SATURATED;
+            return a < 0 ? FX_MIN : FX_MAX;
+        }
+        q <<= sh;
+    } else {
+        uint8_t down = (uint8_t)-sh;
+        if (down > 31u) {
+            return 0;
+        }
+        q += (uint32_t)1 << (down - 1u); /* q <= 2^30: no carry out */
+        while (down >= 8u) {
+            q >>= 8;
+            down = (uint8_t)(down - 8u);
+        }
+        q >>= down;
+    }
+    return a < 0 ? -(int32_t)q : (int32_t)q;
+}
+
 int32_t fx_sqrt(int32_t a, uint8_t q, uint8_t *status)
 {
     if (a <= 0) {
