@@ -432,6 +432,38 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
     return int(known[args.paper].reproduce(console, args.board))
 
 
+def cmd_sweep(args: argparse.Namespace) -> int:
+    from vehil import scenario, sweep
+    from vehil.perturb import parse_option
+
+    sc = scenario.load(args.scenario)
+    try:
+        extra = dict(parse_option(v) for v in args.vary)
+    except ValueError as exc:
+        raise scenario.ScenarioError(str(exc)) from None
+    found = sweep.perturbations(sc, extra)
+    if args.drives < 1:
+        raise scenario.ScenarioError(f"-n {args.drives}: a sweep needs at least one drive")
+    result = sweep.run(
+        sc,
+        found,
+        args.drives,
+        _board(args),
+        matched=args.matched,
+        seed=args.seed,
+        out=Path(args.out) if args.out else None,
+        console=console,
+    )
+    md = sweep.write(result)
+    if args.json:
+        args.json_out.append(result.to_json())
+    else:
+        console.print(sweep.distribution_table(result))
+        console.print(sweep.flag_table(result))
+    console.print(f"report {md}")
+    return 0
+
+
 def cmd_profile(args: argparse.Namespace) -> int:
     if args.functions:
         from vehil.fnprofile.command import profile_functions
@@ -635,6 +667,30 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("paper", help="the paper's key, e.g. acc, braking, stlqf")
     p.add_argument("--board", default=None, help="also run the board estimators on this board")
     p.set_defaults(func=cmd_reproduce)
+
+    p = sub.add_parser(
+        "sweep", help="Monte Carlo: a scenario over perturbed plants, error and flag distributions"
+    )
+    p.add_argument("scenario", help="a scenario .toml, or the name of a shipped one")
+    _add_board_options(p)
+    p.set_defaults(board="native")
+    p.add_argument("-n", "--drives", type=int, default=20, help="perturbed drives (default 20)")
+    p.add_argument(
+        "--vary",
+        action="append",
+        default=[],
+        metavar="NAME:rel=R",
+        help="vary a plant parameter (over the scenario's [sweep]): NAME:rel=R, NAME:abs=A, "
+        "NAME:lo=L,hi=H or NAME:values=A/B/C; repeatable",
+    )
+    p.add_argument(
+        "--matched",
+        action="store_true",
+        help="give the estimator the drawn values of parameters it shares with the plant",
+    )
+    p.add_argument("--seed", type=int, default=None, help="seed of the draws (the scenario's)")
+    p.add_argument("--out", default=None, help="folder for the drives, sweep.md/.png/.json")
+    p.set_defaults(func=cmd_sweep)
 
     p = sub.add_parser("profile", help="baud/latency/throughput sweep and estimator costs")
     _add_board_options(p)

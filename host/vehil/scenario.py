@@ -17,6 +17,7 @@ from vehil import estimators, plants
 from vehil.errors import VehilError
 from vehil.estimators.base import MODES, EstimatorSpec
 from vehil.paths import PROJECT_ROOT
+from vehil.perturb import Perturbation, declare
 
 SCENARIO_DIR = PROJECT_ROOT / "scenarios"
 LOG_FORMATS = ("csv", "mdf4", "vehil", "blf", "asc", "candump")
@@ -110,6 +111,7 @@ class Scenario:
     tolerances: dict[str, Tolerance] = field(default_factory=dict)
     paper: str = ""
     figures: tuple[str, ...] = ()
+    sweep: dict[str, Perturbation] = field(default_factory=dict)  # [sweep]: `vehil sweep`'s
     raw: dict[str, Any] = field(default_factory=dict)  # the file as parsed, for the recording
 
     @property
@@ -271,6 +273,19 @@ def _log_source(
     )
 
 
+def _sweep(
+    top: _Checker, plant: plants.PlantSpec, nominal: dict[str, Any]
+) -> dict[str, Perturbation]:
+    table = top.sub("sweep")
+    try:
+        return {
+            name: declare(name, value, plant.params, nominal, plant.name)
+            for name, value in table.table.items()
+        }
+    except ValueError as exc:
+        raise ScenarioError(f"{table.where}: {exc}") from None
+
+
 def _own_step(sc: _Checker, top: _Checker, path: Path | None, spec: EstimatorSpec) -> float:
     """sample_time = "log": the log's own regular step (its time-step parameters follow)."""
     from vehil.logs import own_step  # the log is read here: only this setting needs it
@@ -287,7 +302,7 @@ def _own_step(sc: _Checker, top: _Checker, path: Path | None, spec: EstimatorSpe
 
 def parse(data: dict[str, Any], where: str, path: Path | None = None) -> Scenario:
     top = _Checker(where, data, "")
-    top.only("scenario", "plant", "log", "estimator", "signals", "tolerance")
+    top.only("scenario", "plant", "log", "estimator", "signals", "tolerance", "sweep")
     sc = top.sub("scenario")
     sc.only("name", "title", "duration", "sample_time", "seed", "paper", "figures", "closed_loop")
     est_t = top.sub("estimator")
@@ -352,7 +367,11 @@ def parse(data: dict[str, Any], where: str, path: Path | None = None) -> Scenari
                     f"plant {plant_name} needs {', '.join(missing)} from the estimator, "
                     f"which gives {', '.join(outputs)}",
                 )
+        sweep = _sweep(top, plant_spec, plant_params)
     else:
+        if "sweep" in data:
+            raise ScenarioError(f"{where}: [sweep] varies a plant; a recorded drive has none")
+        sweep = {}
         if sc.table.get("closed_loop"):
             raise sc.fail("closed_loop", "a recorded drive cannot close a loop")
         closed_loop = False
@@ -399,6 +418,7 @@ def parse(data: dict[str, Any], where: str, path: Path | None = None) -> Scenari
         tolerances=tolerances,
         paper=sc.text("paper", ""),
         figures=tuple(figures),
+        sweep=sweep,
         raw=data,
     )
 

@@ -1,0 +1,341 @@
+"""`vehil sweep`: Monte Carlo over a scenario's plant, through the runner on any board.
+
+Each drive is the scenario with its perturbed plant parameters drawn anew and its own
+noise seed, run and judged exactly as `vehil run` would (runner.run, compare.evaluate).
+The estimator keeps its nominal parameters, so the sweep measures model mismatch;
+`matched` hands it the drawn values of the parameters it shares by name with the plant.
+A nominal drive (no perturbation, the scenario's seed) is run first as the baseline.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from dataclasses import dataclass
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from rich.console import Console
+from rich.markup import escape
+from rich.table import Table
+
+from vehil import plants, runner
+from vehil.boards import Board
+from vehil.compare import Figures, evaluate, series_from_run
+from vehil.paths import runs_dir
+from vehil.perturb import Perturbation
+from vehil.protocol.schema import SCHEMA
+from vehil.scenario import Scenario, ScenarioError
+
+
+@dataclass(frozen=True)
+class Drive:
+    index: int  # 0 is the nominal drive
+    seed: int
+    drawn: dict[str, float]  # the perturbed plant parameters' values
+    figures: Figures
+
+
+@dataclass(frozen=True)
+class Sweep:
+    scenario: Scenario
+    board: str
+    perturbations: dict[str, Perturbation]
+    matched: tuple[str, ...]  # estimator parameters that followed the plant
+    nominal: Drive
+    drives: list[Drive]
+    out: Path
+
+    def errors(self) -> dict[str, dict[str, np.ndarray]]:
+        """Per output, per measure, one value per perturbed drive (NaN where none)."""
+        found: dict[str, dict[str, np.ndarray]] = {}
+        for name in self.nominal.figures.outputs:
+            o = [d.figures.outputs[name] for d in self.drives]
+            measures = {"max abs error vs float64": [x.reference.max_abs for x in o]}
+            if all(x.truth is not None for x in o):
+                measures["RMS vs truth"] = [x.truth.rmse for x in o]  # type: ignore[union-attr]
+                measures["RMS vs truth, float64 ref"] = [
+                    x.truth.reference_rmse  # type: ignore[union-attr]
+                    for x in o
+                ]
+            found[name] = {
+                m: np.array([np.nan if v is None else v for v in vs], dtype=np.float64)
+                for m, vs in measures.items()
+            }
+        return found
+
+    def distributions(self) -> list[dict[str, Any]]:
+        rows = []
+        for name, measures in self.errors().items():
+            o = self.nominal.figures.outputs[name]
+            nominal = {
+                "max abs error vs float64": o.reference.max_abs,
+                "RMS vs truth": o.truth.rmse if o.truth else None,
+                "RMS vs truth, float64 ref": o.truth.reference_rmse if o.truth else None,
+            }
+            for measure, x in measures.items():
+                ok = x[np.isfinite(x)]
+                rows.append(
+                    {
+                        "output": name,
+                        "unit": o.unit,
+                        "measure": measure,
+                        "nominal": nominal[measure],
+                        "median": float(np.median(ok)) if len(ok) else None,
+                        "p95": float(np.percentile(ok, 95)) if len(ok) else None,
+                        "worst": float(ok.max()) if len(ok) else None,
+                        "worst_drive": self.drives[int(np.nanargmax(x))].index if len(ok) else None,
+                        "drives": len(ok),
+                    }
+                )
+        return rows
+
+    def flags(self) -> list[dict[str, Any]]:
+        """Per status bit: on how many drives it fired, and on what share of all samples."""
+        samples = sum(d.figures.samples for d in self.drives)
+        rows = []
+        for bit in SCHEMA.status:
+            counts = [d.figures.status.get(bit, 0) for d in self.drives]
+            rows.append(
+                {
+                    "flag": bit,
+                    "nominal_samples": self.nominal.figures.status.get(bit, 0),
+                    "drives": sum(c > 0 for c in counts),
+                    "of": len(self.drives),
+                    "sample_share": sum(counts) / samples if samples else None,
+                }
+            )
+        return rows
+
+    def verdicts(self) -> dict[str, int]:
+        words: dict[str, int] = {}
+        for d in self.drives:
+            words[d.figures.verdict.word] = words.get(d.figures.verdict.word, 0) + 1
+        return words
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "scenario": self.scenario.name,
+            "estimator": self.scenario.estimator.name,
+            "mode": self.scenario.mode,
+            "board": self.board,
+            "perturbations": {
+                n: {"how": p.how, "lo": p.lo, "hi": p.hi, "unit": p.unit}
+                for n, p in self.perturbations.items()
+            },
+            "matched": list(self.matched),
+            "distributions": self.distributions(),
+            "flags": self.flags(),
+            "verdicts": self.verdicts(),
+            "drives": [
+                {
+                    "index": d.index,
+                    "seed": d.seed,
+                    "drawn": d.drawn,
+                    "verdict": str(d.figures.verdict),
+                    "outputs": {
+                        n: {
+                            "max_abs_vs_ref": o.reference.max_abs,
+                            "rms_vs_truth": o.truth.rmse if o.truth else None,
+                        }
+                        for n, o in d.figures.outputs.items()
+                    },
+                    "status": d.figures.status,
+                }
+                for d in (self.nominal, *self.drives)
+            ],
+        }
+
+
+def perturbations(scenario: Scenario, extra: dict[str, dict[str, Any]]) -> dict[str, Perturbation]:
+    """The scenario's [sweep], with `extra` (from the command line) over it, checked."""
+    from vehil.perturb import declare
+
+    if scenario.plant is None:
+        raise ScenarioError(f"{scenario.path}: a sweep varies a plant; this scenario replays a log")
+    spec = plants.get(scenario.plant)
+    found = dict(scenario.sweep)
+    try:
+        for name, table in extra.items():
+            found[name] = declare(name, table, spec.params, scenario.plant_params, spec.name)
+    except ValueError as exc:
+        raise ScenarioError(str(exc)) from None
+    if not found:
+        raise ScenarioError(
+            f"{scenario.path}: nothing to vary: give a [sweep] table in the scenario "
+            "(e.g. mass = {rel = 0.15}) or --vary NAME:rel=0.15"
+        )
+    return found
+
+
+def _drive(
+    scenario: Scenario, index: int, seed: int, drawn: dict[str, float], matched: tuple[str, ...]
+) -> Scenario:
+    params = {**scenario.params, **{n: drawn[n] for n in matched if n in drawn}}
+    if matched:
+        params = scenario.estimator.param_values(params)  # the drawn values in its ranges too
+    return dataclasses.replace(
+        scenario,
+        name=f"{scenario.name}-{index:03d}",
+        seed=seed,
+        plant_params={**scenario.plant_params, **drawn},
+        params=params,
+    )
+
+
+def run(
+    scenario: Scenario,
+    found: dict[str, Perturbation],
+    drives: int,
+    board: str | Board = "native",
+    *,
+    matched: bool = False,
+    seed: int | None = None,
+    out: Path | None = None,
+    console: Console | None = None,
+) -> Sweep:
+    """The nominal drive, then `drives` perturbed ones; drive i's plant seed is the
+    scenario's + i, and the draws come from `seed` (the scenario's by default)."""
+    board_name = board if isinstance(board, str) else board.name
+    stamp = datetime.now(UTC).strftime("%Y%m%dT%H%M%SZ")
+    out = out or runs_dir() / f"sweep-{scenario.name}-{board_name}-{stamp}"
+    shared = tuple(n for n in found if matched and n in {p.name for p in scenario.estimator.params})
+    if matched and not shared:
+        raise ScenarioError(
+            f"--matched: {scenario.estimator.name} shares no parameter with the varied ones "
+            f"({', '.join(found)})"
+        )
+    rng = np.random.default_rng(scenario.seed if seed is None else seed)
+    quiet = Console(quiet=True)
+    done: list[Drive] = []
+    for i in range(drives + 1):
+        drawn = {} if i == 0 else {n: p.draw(rng) for n, p in found.items()}
+        sc = _drive(scenario, i, scenario.seed + i, drawn, shared)
+        result = runner.run(
+            sc, board, recording=out / f"drive-{i:03d}" / "run.arrow", console=quiet
+        )
+        done.append(Drive(i, sc.seed, drawn, evaluate(series_from_run(result))))
+        if console is not None:
+            console.print(f"drive {i}/{drives}: {done[-1].figures.verdict}", highlight=False)
+    return Sweep(scenario, board_name, found, shared, done[0], done[1:], out)
+
+
+def _g(x: float | None) -> str:
+    return "-" if x is None else f"{x:.4g}"
+
+
+def distribution_table(s: Sweep) -> Table:
+    t = Table(title=f"{s.scenario.name}: {len(s.drives)} drives on {s.board}")
+    for col in ("output", "measure", "nominal", "median", "p95", "worst (drive)"):
+        t.add_column(col, justify="left" if col in ("output", "measure") else "right")
+    for r in s.distributions():
+        unit = escape(f" [{r['unit']}]") if r["unit"] else ""
+        t.add_row(
+            r["output"] + unit,
+            r["measure"],
+            _g(r["nominal"]),
+            _g(r["median"]),
+            _g(r["p95"]),
+            f"{_g(r['worst'])} ({r['worst_drive']})",
+        )
+    varied = "; ".join(f"{n} {p.how} {p.unit}" for n, p in s.perturbations.items())
+    follows = f"; the estimator follows {', '.join(s.matched)}" if s.matched else ""
+    verdicts = ", ".join(f"{w} {n}" for w, n in s.verdicts().items())
+    t.caption = f"varied: {varied}{follows}; verdicts: {verdicts}"
+    return t
+
+
+def flag_table(s: Sweep) -> Table:
+    t = Table(title="status flags (per step, for the estimator as a whole)")
+    for col in ("flag", "nominal samples", "drives fired", "share of samples"):
+        t.add_column(col, justify="left" if col == "flag" else "right")
+    for r in s.flags():
+        share = "-" if r["sample_share"] is None else f"{r['sample_share']:.2%}"
+        t.add_row(r["flag"], str(r["nominal_samples"]), f"{r['drives']}/{r['of']}", share)
+    return t
+
+
+def _plot(s: Sweep, path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    errors = s.errors()
+    measures = ["RMS vs truth", "max abs error vs float64"]
+    fig, axes = plt.subplots(
+        len(measures), len(errors), figsize=(3.2 * len(errors), 5.5), squeeze=False
+    )
+    for j, (name, found) in enumerate(errors.items()):
+        o = s.nominal.figures.outputs[name]
+        for i, m in enumerate(measures):
+            ax = axes[i][j]
+            x = found.get(m)
+            if x is None or not np.isfinite(x).any():
+                ax.set_axis_off()
+                continue
+            ax.hist(x[np.isfinite(x)], bins=min(20, max(5, len(x) // 2)), color="tab:blue")
+            nominal = o.reference.max_abs if m.startswith("max") else o.truth.rmse  # type: ignore[union-attr]
+            if nominal is not None:
+                ax.axvline(nominal, color="tab:red", label="nominal drive")
+                ax.legend(fontsize=7)
+            ax.set_title(f"{name}: {m}", fontsize=8)
+            ax.set_xlabel(o.unit, fontsize=8)
+    fig.suptitle(f"{s.scenario.name}: {len(s.drives)} drives", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+
+
+def write(s: Sweep) -> Path:
+    """sweep.md, sweep.png and sweep.json in the sweep's folder; returns the Markdown's path."""
+    s.out.mkdir(parents=True, exist_ok=True)
+    (s.out / "sweep.json").write_text(json.dumps(s.to_json(), indent=1))
+    _plot(s, s.out / "sweep.png")
+    sc = s.scenario
+    lines = [
+        f"# Sweep: {sc.name}",
+        "",
+        f"{sc.estimator.name} ({sc.mode}) on {s.board}, {len(s.drives)} perturbed drives "
+        f"and the nominal one; plant {sc.plant}, drive i's noise seed {sc.seed} + i.",
+        "",
+        "| varied | how | range |",
+        "|---|---|---|",
+        *(f"| {n} | {p.how} | [{p.lo:g}, {p.hi:g}] {p.unit} |" for n, p in s.perturbations.items()),
+        "",
+        "The estimator keeps its nominal parameters"
+        + (f" except {', '.join(s.matched)}, which follow the plant." if s.matched else "."),
+        "",
+        "| output | measure | nominal | median | p95 | worst (drive) |",
+        "|---|---|---|---|---|---|",
+    ]
+    for r in s.distributions():
+        lines.append(
+            f"| {r['output']} [{r['unit']}] | {r['measure']} | {_g(r['nominal'])} | "
+            f"{_g(r['median'])} | {_g(r['p95'])} | {_g(r['worst'])} ({r['worst_drive']}) |"
+        )
+    lines += [
+        "",
+        "| flag | nominal samples | drives fired | share of samples |",
+        "|---|---|---|---|",
+    ]
+    for r in s.flags():
+        share = "-" if r["sample_share"] is None else f"{r['sample_share']:.2%}"
+        lines.append(
+            f"| {r['flag']} | {r['nominal_samples']} | {r['drives']}/{r['of']} | {share} |"
+        )
+    verdicts = ", ".join(f"{w} {n}" for w, n in s.verdicts().items())
+    lines += [
+        "",
+        f"Verdicts against the scenario's tolerances: {verdicts}.",
+        "",
+        "![distributions](sweep.png)",
+        "",
+        "Each drive's recording and figures: drive-NNN/ (000 is the nominal drive).",
+        "",
+    ]
+    md = s.out / "sweep.md"
+    md.write_text("\n".join(lines))
+    return md

@@ -1,0 +1,76 @@
+"""`vehil sweep` on the native board: N drives, their distributions, and what mismatch does."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from vehil import cli, scenario, sweep
+
+VARY = {"i_w": {"lo": 1.0, "hi": 1.5}, "k_b": {"lo": 0.55, "hi": 0.6}}  # another car's wheels
+
+
+@pytest.fixture(scope="module")
+def uiiekf3(built):  # noqa: ANN001, ANN201
+    """UIIEKF (3 states) on 3 drives of a car whose wheel inertia and brake split it does not
+    know, and on the same 3 drives told them."""
+    sc = scenario.load("uiiekf3-abs-dry")
+    found = sweep.perturbations(sc, VARY)
+    return {
+        matched: sweep.run(sc, found, 3, "native", matched=matched) for matched in (False, True)
+    }
+
+
+def _row(s: sweep.Sweep, output: str, measure: str) -> dict:
+    return next(r for r in s.distributions() if r["output"] == output and r["measure"] == measure)
+
+
+def test_each_drive_is_drawn_and_counted(uiiekf3) -> None:  # noqa: ANN001
+    s = uiiekf3[False]
+    assert [d.index for d in s.drives] == [1, 2, 3] and s.nominal.drawn == {}
+    assert len({d.drawn["i_w"] for d in s.drives}) == 3
+    assert all(1.0 <= d.drawn["i_w"] <= 1.5 and 0.55 <= d.drawn["k_b"] <= 0.6 for d in s.drives)
+    assert [d.seed for d in s.drives] == [2, 3, 4]  # the scenario's seed 1 + i
+    assert all(r["drives"] == 3 for r in s.distributions())
+    assert all(d.figures.samples == 400 for d in (s.nominal, *s.drives))
+
+
+def test_mismatch_degrades_the_error_and_raises_diverged(uiiekf3) -> None:  # noqa: ANN001
+    wrong, told = uiiekf3[False], uiiekf3[True]
+    nominal = _row(wrong, "v", "RMS vs truth")["nominal"]
+    assert _row(wrong, "v", "RMS vs truth")["median"] > 4 * nominal
+    assert (
+        _row(wrong, "v", "RMS vs truth")["median"] > 2 * _row(told, "v", "RMS vs truth")["median"]
+    )
+    diverged = {r["flag"]: r for r in wrong.flags()}["DIVERGED"]
+    assert diverged["nominal_samples"] == 0 and diverged["drives"] == 3
+    assert told.matched == ("i_w", "k_b")
+    assert {r["flag"]: r for r in told.flags()}["DIVERGED"]["drives"] == 0
+
+
+def test_report_files(uiiekf3) -> None:  # noqa: ANN001
+    s = uiiekf3[False]
+    md = sweep.write(s)
+    text = md.read_text()
+    assert "3 perturbed drives" in text and "| i_w | [1, 1.5] |" in text
+    assert "| DIVERGED | 0 | 3/3 |" in text
+    assert (s.out / "sweep.png").stat().st_size > 10_000
+    data = json.loads((s.out / "sweep.json").read_text())
+    assert len(data["drives"]) == 4 and data["drives"][0]["drawn"] == {}
+    assert all((s.out / f"drive-{i:03d}" / "run.arrow").exists() for i in range(4))
+
+
+def test_cli_refuses_an_envelope_outside_the_plant(built, capsys) -> None:  # noqa: ANN001
+    assert cli.main(["sweep", "uiiekf3-abs-dry", "-n", "2", "--vary", "i_w:rel=0.99"]) == 2
+    said = capsys.readouterr().out
+    assert "sweep.i_w" in said and "outside plant braking's range for i_w" in said
+
+
+def test_cli_json(built, tmp_path, capsys) -> None:  # noqa: ANN001
+    args = ["sweep", "manf-40kmh-10ms", "-n", "2", "--vary", "wheel_var:lo=0.005,hi=0.05"]
+    assert cli.main([*args, "--out", str(tmp_path), "--json"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert data["board"] == "native" and len(data["drives"]) == 3
+    assert {r["output"] for r in data["distributions"]} == {"v", "rg"}
+    assert (tmp_path / "sweep.md").exists()
