@@ -103,6 +103,8 @@ def test_ctrl_c_stops_a_run_cleanly_and_keeps_what_was_recorded(tmp_path, built)
         ("manf-hard-stop", "simavr", 4.0),
         ("manf-hard-stop-fixed", "simavr", 4.0),
         ("manf-abs-snow", "simavr", 6.0),
+        ("manf-wet-fast-fixed", "simavr", 8.0),  # unlike the shipped drives
+        ("hard-braking-downhill-fixed", "simavr", 20.0),  # ACC: heavier car, 8 % down
         ("uiiekf3-abs-dry", "simavr", 1.5),
         ("paper-dither", "simavr", 15.0),
         ("rls-flat-steps", "simavr", 20.0),
