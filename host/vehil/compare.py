@@ -43,6 +43,7 @@ class Series:
     error: str | None = None
     expected: int | None = None  # samples the run was to have; None if not known
     stop_signal: int | None = None  # the signal that interrupted the run
+    score_from_s: float = 0.0  # truth metrics from this time on (the scenario's)
 
 
 @dataclass(frozen=True)
@@ -59,7 +60,8 @@ class ReferenceCheck:
 
 @dataclass(frozen=True)
 class TruthCheck:
-    """Board vs the truth (the reference's own error beside it), against `truth_rms`."""
+    """Board vs the truth (the reference's own error beside it), against `truth_rms`,
+    over the samples from `from_s` on."""
 
     rmse: float | None
     max_abs: float | None
@@ -67,6 +69,7 @@ class TruthCheck:
     reference_rmse: float | None
     limit: float | None  # the tolerance's truth_rms; None: not checked
     passed: bool | None
+    from_s: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -177,11 +180,14 @@ def _output(s: Series, j: int, name: str) -> OutputFigures:
     reference = ReferenceCheck(*_err_stats(b - r), tol, outside, ref_passed)
     truth = None
     if name in s.truth:
-        rmse, max_abs, worst_k = _err_stats(b - s.truth[name][:n])
+        scored = np.flatnonzero(s.t[:n] >= s.score_from_s)
+        true = s.truth[name][:n][scored]
+        rmse, max_abs, worst = _err_stats(b[scored] - true)
+        worst_k = None if worst is None else int(scored[worst])
         limit = tol.truth_rms if tol is not None else None
         truth_passed = None if limit is None or rmse is None else rmse <= limit
-        ref_rmse = _err_stats(r - s.truth[name][:n])[0]
-        truth = TruthCheck(rmse, max_abs, worst_k, ref_rmse, limit, truth_passed)
+        ref_rmse = _err_stats(r[scored] - true)[0]
+        truth = TruthCheck(rmse, max_abs, worst_k, ref_rmse, limit, truth_passed, s.score_from_s)
     bits = None
     if tol is not None and tol.bit_exact:
         if s.native is not None and n:
@@ -322,6 +328,7 @@ def series_from_recording(rec: Any) -> Series:
         error=end.get("error") if rec.end else f"recording {rec.truncated}",
         expected=rec.header.get("expected_samples"),
         stop_signal=end.get("signal"),
+        score_from_s=rec.header.get("scenario", {}).get("score_from_s", 0.0),
     )
 
 
@@ -350,4 +357,5 @@ def series_from_run(run: Any) -> Series:
         error=run.error,
         expected=run.expected,
         stop_signal=run.stop_signal,
+        score_from_s=p.scenario.score_from_s,
     )

@@ -36,6 +36,8 @@ def _cells(o: OutputFigures, ref_word: str) -> tuple[str, str, str, str]:
     ref, truth = o.reference, o.truth
     tol_s = "-" if ref.tolerance is None else _tolerance(ref.tolerance, ref_word)
     truth_s = "-" if truth is None else f"{_g(truth.rmse)} / {_g(truth.reference_rmse)}"
+    if truth is not None and truth.from_s:
+        truth_s += f" from {truth.from_s:g} s"
     worst = f" ({ref.worst_k})" if ref.worst_k is not None else ""
     return tol_s, _g(ref.rmse), _g(ref.max_abs) + worst, truth_s
 

@@ -361,6 +361,7 @@ def _header(
             "mode": sc.mode,
             "sample_time": sc.sample_time,
             "closed_loop": sc.closed_loop,
+            "score_from_s": sc.score_from_s,
         },
         "estimator": {
             "name": spec.name,

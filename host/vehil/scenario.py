@@ -111,6 +111,9 @@ class Scenario:
     tolerances: dict[str, Tolerance] = field(default_factory=dict)
     paper: str = ""
     figures: tuple[str, ...] = ()
+    # Truth metrics count from this time on: the convergence from the initial guess is
+    # the estimator's start-up, not its accuracy.
+    score_from_s: float = 0.0
     sweep: dict[str, Perturbation] = field(default_factory=dict)  # [sweep]: `vehil sweep`'s
     raw: dict[str, Any] = field(default_factory=dict)  # the file as parsed, for the recording
 
@@ -304,7 +307,17 @@ def parse(data: dict[str, Any], where: str, path: Path | None = None) -> Scenari
     top = _Checker(where, data, "")
     top.only("scenario", "plant", "log", "estimator", "signals", "tolerance", "sweep")
     sc = top.sub("scenario")
-    sc.only("name", "title", "duration", "sample_time", "seed", "paper", "figures", "closed_loop")
+    sc.only(
+        "name",
+        "title",
+        "duration",
+        "sample_time",
+        "seed",
+        "paper",
+        "figures",
+        "closed_loop",
+        "score_from_s",
+    )
     est_t = top.sub("estimator")
     est_t.only("name", "mode", "params")
     known = estimators.estimators()
@@ -397,6 +410,12 @@ def parse(data: dict[str, Any], where: str, path: Path | None = None) -> Scenari
             bit_exact=bit_exact,
             truth_rms=t.number("truth_rms", lo=0.0) if "truth_rms" in t.table else None,
         )
+    score_from_s = sc.number("score_from_s", 0.0, lo=0.0)
+    if score_from_s >= duration:
+        raise sc.fail(
+            "score_from_s",
+            f"{score_from_s:g} s leaves nothing to score: the drive lasts {duration:g} s",
+        )
     figures = sc.table.get("figures", [])
     if not isinstance(figures, list) or not all(isinstance(f, str) for f in figures):
         raise sc.fail("figures", "must be a list of strings")
@@ -418,6 +437,7 @@ def parse(data: dict[str, Any], where: str, path: Path | None = None) -> Scenari
         tolerances=tolerances,
         paper=sc.text("paper", ""),
         figures=tuple(figures),
+        score_from_s=score_from_s,
         sweep=sweep,
         raw=data,
     )

@@ -88,3 +88,20 @@ def test_a_closed_loop_survives_a_board_reset_with_the_same_outputs(built) -> No
     clean = runner.run(sc, "native", console=Console(quiet=True))
     assert broken.ended == "completed" and [r.at_sample for r in broken.resumes] == [299]
     assert (broken.board_out == clean.board_out).all()
+
+
+def test_a_recording_keeps_the_scenarios_score_from_s(tmp_path) -> None:  # noqa: ANN001
+    """UIIEKF starts from its initial guess: scored from 1 s its truth RMS is lower, and the
+    recording read back scores from the same time."""
+    sc = scenario.load("uiiekf3-abs-dry")
+    later = dataclasses.replace(sc, score_from_s=1.0)
+    run = runner.run(later, "native", recording=tmp_path / "run.arrow")
+    fresh = compare.evaluate(compare.series_from_run(run)).outputs["v"].truth
+    read = compare.evaluate(compare.series_from_recording(record.read(run.recording)))
+    whole = (
+        compare.evaluate(dataclasses.replace(compare.series_from_run(run), score_from_s=0.0))
+        .outputs["v"]
+        .truth
+    )
+    assert fresh == read.outputs["v"].truth and fresh.from_s == 1.0
+    assert fresh.rmse < whole.rmse and fresh.worst_k >= 100

@@ -23,6 +23,7 @@ def test_a_good_scenario_loads_with_defaults_filled_in() -> None:
     assert sc.samples == 100
     assert sc.plant_params["amplitude"] == 1.5 and sc.plant_params["noise_std"] == 0.05
     assert sc.tolerances["y"].abs == 1e-6 and sc.tolerances["y"].truth_rms == 0.1
+    assert sc.score_from_s == 0.0
 
 
 @pytest.mark.parametrize(
@@ -57,6 +58,11 @@ def test_a_good_scenario_loads_with_defaults_filled_in() -> None:
         (lambda d: d.update(log={"path": "a.csv"}), r"give exactly one of \[plant\] and \[log\]"),
         (lambda d: d.update(extra={}), r"extra: unknown key; allowed here: scenario, plant"),
         (lambda d: d["scenario"].update(closed_loop="yes"), r"closed_loop: must be true or false"),
+        (
+            lambda d: d["scenario"].update(score_from_s=1.0),
+            r"scenario.score_from_s: 1 s leaves nothing to score: the drive lasts 1 s",
+        ),
+        (lambda d: d["scenario"].update(score_from_s=-1), r"scenario.score_from_s: -1 is outside"),
     ],
 )
 def test_mistakes_are_named(change, message) -> None:  # noqa: ANN001

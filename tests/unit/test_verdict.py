@@ -144,3 +144,21 @@ def test_cycles_of_different_boards_are_not_compared_as_a_change() -> None:
     assert "different boards, not compared" in text and "%" not in text
     same = compare.diff_runs(a, series(np.ones(10), np.ones(10), {}, board_name="native"))
     assert same["cycles_comparable"]
+
+
+def test_truth_metrics_count_from_score_from_s(tmp_path) -> None:  # noqa: ANN001
+    """A filter that starts 10 off and converges by t = 1 s: scored from 1 s its RMS is its
+    accuracy (0.01), not its start-up; the worst sample is named in the whole run's indices."""
+    truth = np.zeros(300)
+    board = np.where(np.arange(300) < 100, 10.0, 0.01)
+    board[250] = 0.05
+    tol = {"y": Tolerance(abs=1.0, truth_rms=0.1)}
+    whole = compare.evaluate(series(board, board, tol, truth={"y": truth}))
+    assert whole.outputs["y"].truth.rmse > 5 and whole.outputs["y"].truth.passed is False
+    s = series(board, board, tol, truth={"y": truth}, score_from_s=1.0)
+    md, data, figures = written(s, tmp_path)
+    t = figures.outputs["y"].truth
+    assert t.rmse == pytest.approx(np.sqrt((199 * 0.01**2 + 0.05**2) / 200))
+    assert (t.max_abs, t.worst_k, t.from_s, t.passed) == (0.05, 250, 1.0, True)
+    assert figures.passed and "from 1 s" in row(md, "y")
+    assert data["outputs"]["y"]["truth"]["from_s"] == 1.0
