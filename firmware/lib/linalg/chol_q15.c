@@ -30,15 +30,15 @@ static int16_t to_q15(int32_t x, uint8_t *status)
     return (int16_t)x;
 }
 
-/* (x - Σ l[k] y[k stride] 2^-15) / l_ii for k < n: one substitution row. */
+/* (x - Σ l[k] y[k stride] 2^-15) / l_ii for k < n: one substitution row, each product
+ * rounded by fixmath's fixed-shift kernel (int64 sums are library calls on the AVR). */
 static int32_t substitute(int32_t x, const int16_t *l, const int32_t *y, uint8_t stride_l,
                           uint8_t n, int32_t inv, uint8_t *status)
 {
-    int64_t acc = 0;
+    int32_t s = x;
     for (uint8_t k = 0; k < n; k++) {
-        acc += (int64_t)l[k * stride_l] * y[k];
+        s = fx_sub(s, fx_mul_shr(l[k * stride_l], y[k], 15, status), status);
     }
-    int32_t s = fx_sat((int64_t)x - ((acc + ((int64_t)1 << 14)) >> 15), status);
     return fx_mul_shr(s, inv, 16, status); /* 1 / l_ii in Q16 */
 }
 
