@@ -62,6 +62,20 @@ void longit_configure_q(longit_q_t *l, const uint8_t *params, uint8_t first)
 
 void longit_reset(longit_t *l) { l->started = 0; }
 
+uint8_t longit_bit_length(uint32_t x)
+{
+    uint8_t n = 0;
+    while (x >> 8 != 0u) { /* whole bytes first: the AVR shifts a bit at a time */
+        x >>= 8;
+        n += 8;
+    }
+    while (x != 0u) {
+        x >>= 1;
+        n++;
+    }
+    return n;
+}
+
 /* One sample through the prefilter (transposed direct form II), settled at the first. */
 static void prefilter(longit_t *l, float *x)
 {

@@ -56,6 +56,9 @@ void longit_configure(longit_t *l, const uint8_t *params, uint8_t first, uint8_t
 /* The shared parameters, starting at index `first`, as FIXED's constants. */
 void longit_configure_q(longit_q_t *l, const uint8_t *params, uint8_t first);
 
+/* The number of bits of x (0 for 0): FIXED's block exponents in STLQF and RLS. */
+uint8_t longit_bit_length(uint32_t x);
+
 /* The prefilter back to its start (it settles on the next sample). */
 void longit_reset(longit_t *l);
 

@@ -20,20 +20,6 @@ static const uint8_t theta_q[3] = {16, 20, 16};
 /* P̃_ij's place in the packed lower triangle. */
 static const uint8_t at[3][3] = {{0, 1, 3}, {1, 2, 4}, {3, 4, 5}};
 
-static uint8_t bit_length(uint32_t x)
-{
-    uint8_t n = 0;
-    while (x >> 8 != 0u) { /* whole bytes first: the AVR shifts a bit at a time */
-        x >>= 8;
-        n += 8;
-    }
-    while (x != 0u) {
-        x >>= 1;
-        n++;
-    }
-    return n;
-}
-
 static uint32_t magnitude(int32_t x) { return x < 0 ? (uint32_t)0 - (uint32_t)x : (uint32_t)x; }
 
 /* v >> d (arithmetic), whole bytes first: the AVR shifts an int32 one bit at a time. */
@@ -112,7 +98,7 @@ static int32_t reciprocal(int32_t s, uint8_t *st)
 /* m sin / m in Q30 for m > 0 (both Q16): m as m_n 2^(n - 16), m_n in [1/2, 1). */
 static int32_t ratio_q30(int32_t m_sin, int32_t m, uint8_t *st)
 {
-    uint8_t n = bit_length((uint32_t)m);
+    uint8_t n = longit_bit_length((uint32_t)m);
     int32_t r = reciprocal(shift(m, (int16_t)(30 - n), st), st);
     return mul_shr(m_sin, r, (int16_t)(n - 1), st);
 }
@@ -299,7 +285,7 @@ static void update_q(rls_state_t *s, const int32_t *x, uint8_t *status)
 
     int16_t top = INT16_MIN;
     for (uint8_t j = 0; j < 3u; j++) { /* g' > 0: top is set */
-        int16_t b = (int16_t)(bit_length(magnitude(psi[j])) - psi_q[j] + e[j]);
+        int16_t b = (int16_t)(longit_bit_length(magnitude(psi[j])) - psi_q[j] + e[j]);
         top = psi[j] != 0 && b > top ? b : top;
     }
     int32_t u[3], w[3], t[3];
@@ -316,7 +302,7 @@ static void update_q(rls_state_t *s, const int32_t *x, uint8_t *status)
     }
     /* w̃ = ŵ 2^gw, ŵ Q30 with its largest entry in [1/2, 1): once the estimate has
      * converged ψ points where P is small, and w̃ and its square terms below are tiny. */
-    uint8_t n_w = bit_length(peak);
+    uint8_t n_w = longit_bit_length(peak);
     int16_t gw = (int16_t)(n_w - 29);
     int32_t q = 0; /* ũᵀŵ, Q27: <= 3 */
     for (uint8_t i = 0; i < 3u; i++) {
@@ -327,7 +313,7 @@ static void update_q(rls_state_t *s, const int32_t *x, uint8_t *status)
     /* s = l 2^(-2 top) + q 2^gw as s_m 2^g, s_m in [1/8, 1) (Q30) as each term is below
      * 2^(g-1), then in [1/2, 1). */
     int16_t g = (int16_t)(-2 * top);
-    int16_t gq = (int16_t)(bit_length((uint32_t)q) - 27 + gw);
+    int16_t gq = (int16_t)(longit_bit_length((uint32_t)q) - 27 + gw);
     g = (int16_t)((q != 0 && gq > g ? gq : g) + 1);
     int32_t s_m = shift(s->u.q.l, (int16_t)(-2 * top - g), &st) +
                   shift(q, (int16_t)(3 - g + gw), &st);
@@ -342,7 +328,7 @@ static void update_q(rls_state_t *s, const int32_t *x, uint8_t *status)
     /* θ += k err, k = 2^(e - top - g + gw) t, err as err_m 2^(n_err - ERR_Q), err_m in
      * [1/2, 1) (Q30): one multiply, its shift from the exponents. */
     if (err != 0) {
-        uint8_t n_err = bit_length(magnitude(err));
+        uint8_t n_err = longit_bit_length(magnitude(err));
         int32_t err_m = shift(err, (int16_t)(30 - n_err), &st);
         for (uint8_t i = 0; i < 3u; i++) {
             int16_t n = (int16_t)(57 - theta_q[i] - e[i] + top + g - gw - n_err + ERR_Q);

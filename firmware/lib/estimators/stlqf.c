@@ -208,20 +208,6 @@ static const uint8_t row_q[3] = {24 + 6, 18 + 6, 14 + 6};
 #define THETA_Q 16 /* θ's entries in FIXED */
 #define DELTA_Q 24 /* the step from the prior, in the solve's units */
 
-static uint8_t bit_length(uint32_t x)
-{
-    uint8_t n = 0;
-    while (x >> 8 != 0u) { /* whole bytes first: the AVR shifts a bit at a time */
-        x >>= 8;
-        n += 8;
-    }
-    while (x != 0u) {
-        x >>= 1;
-        n++;
-    }
-    return n;
-}
-
 static uint64_t magnitude(int64_t x) { return x < 0 ? (uint64_t)0 - (uint64_t)x : (uint64_t)x; }
 
 /* x · 2^up, rounded, saturated. A left shift is checked and done in int32: the AVR
@@ -271,7 +257,7 @@ static int64_t shift_up(int64_t x, int8_t up)
 /* The shift k that brings a peak of that many bits to the most bits <= limit. */
 static int8_t fit(uint8_t peak_bits, int32_t limit)
 {
-    return (int8_t)(peak_bits - bit_length((uint32_t)limit));
+    return (int8_t)(peak_bits - longit_bit_length((uint32_t)limit));
 }
 
 /* in[0..n) · 2^-k (rounded half up) with |out| <= limit and as many bits as that
@@ -283,7 +269,7 @@ static int8_t normalize(const int32_t *in, int32_t *out, uint8_t n, int32_t limi
         uint32_t mag = in[i] < 0 ? (uint32_t)0 - (uint32_t)in[i] : (uint32_t)in[i];
         peak = mag > peak ? mag : peak;
     }
-    int8_t k = peak != 0u ? fit(bit_length(peak), limit) : 0;
+    int8_t k = peak != 0u ? fit(longit_bit_length(peak), limit) : 0;
     if (k > 0 && ((peak >> (k - 1)) + 1u) >> 1 > (uint32_t)limit) {
         k++; /* rounding up would pass the limit */
     }
@@ -303,8 +289,8 @@ static int8_t normalize64(const int64_t *in, int32_t *out, uint8_t n, int32_t li
     }
     uint32_t top = (uint32_t)(peak >> 32);
     int8_t k = peak == 0u ? 0
-                          : fit(top != 0u ? (uint8_t)(32u + bit_length(top))
-                                          : bit_length((uint32_t)peak),
+                          : fit(top != 0u ? (uint8_t)(32u + longit_bit_length(top))
+                                          : longit_bit_length((uint32_t)peak),
                                 limit);
     if (k > 0 && ((peak >> (k - 1)) + 1u) >> 1 > (uint64_t)limit) {
         k++;
@@ -423,7 +409,7 @@ static int8_t residual(const stlqf_q_t *q, const int32_t r[3][2 * STLQF_ROWS], c
     /* |θ| < 2^(bits), |row| < 2^27: a term is below 2^(bits + 27 + e_term - S). */
     int8_t S = e_r[2];
     for (uint8_t c = 0; c < 3u; c++) {
-        int8_t need = (int8_t)(bit_length((uint32_t)magnitude(prior[2u * c + 1u])) + 27 +
+        int8_t need = (int8_t)(longit_bit_length((uint32_t)magnitude(prior[2u * c + 1u])) + 27 +
                                e_term[c] - 56);
         S = need > S ? need : S;
     }
