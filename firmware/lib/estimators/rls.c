@@ -75,7 +75,8 @@ static int32_t mul_shr(int32_t a, int32_t b, int16_t n, uint8_t *st)
     return fx_mul_shr_c(a, b, (uint8_t)n, st);
 }
 
-/* 1 / s for s in [1/2, 1) (Q30), in Q29: 1/s at s = 1/2 + i/32 (Q29), interpolated
+/* 1 / s for s in [1/2, 1) (Q30), in Q29 to ~30 bits (fx_recip's 5e-7 is coarse for a P near
+ * singular): 1/s at s = 1/2 + i/32 (Q29), interpolated
  * (within 0.2 %), then two Newton steps y (2 - s y), each squaring the error. */
 static const int32_t recip_table[17] = {
     1073741824, 1010580540, 954437177, 904203641, 858993459, 818089009,
