@@ -111,35 +111,37 @@ FX_SHIFTS(FX_DECLARE)
 #undef FX_DECLARE
 #endif
 
-FX_INLINE int32_t fx_mul_rs(int32_t a, int32_t b, uint8_t s, uint8_t *status)
-{
+/* fx_mul_rs and fx_mul_shr: the assembly entry for a constant shift on the AVR (prefix
+ * a or h), the C twin otherwise. */
 #if defined(__AVR__)
-#define FX_CASE(n)                                                                             \
+#define FX_MUL_KERNEL(name, prefix, twin)                                                      \
+    FX_INLINE int32_t name(int32_t a, int32_t b, uint8_t s, uint8_t *status)                   \
+    {                                                                                          \
+        if (__builtin_constant_p(s)) {                                                         \
+            switch (s) { FX_SHIFTS(FX_CASE_##prefix) }                                         \
+        }                                                                                      \
+        return twin(a, b, s, status);                                                          \
+    }
+#define FX_CASE_a(n)                                                                           \
     case n:                                                                                    \
         return fx_mul_a##n(a, b, status);
-    if (__builtin_constant_p(s)) {
-        switch (s) { FX_SHIFTS(FX_CASE) }
+#define FX_CASE_h(n)                                                                           \
+    case n:                                                                                    \
+        return fx_mul_h##n(a, b, status);
+#else
+#define FX_MUL_KERNEL(name, prefix, twin)                                                      \
+    FX_INLINE int32_t name(int32_t a, int32_t b, uint8_t s, uint8_t *status)                   \
+    {                                                                                          \
+        return twin(a, b, s, status);                                                          \
     }
-#undef FX_CASE
 #endif
-    return fx_mul_rs_c(a, b, s, status);
-}
+
+/* a · b · 2^-s (1 <= s <= 62), ties away from zero (fx_mul's rounding), saturated. */
+FX_MUL_KERNEL(fx_mul_rs, a, fx_mul_rs_c)
 
 /* a · b · 2^-s (1 <= s <= 62), rounded half up, saturated: the hot-loop multiply of
  * STLQF and RLS. */
-FX_INLINE int32_t fx_mul_shr(int32_t a, int32_t b, uint8_t s, uint8_t *status)
-{
-#if defined(__AVR__)
-#define FX_CASE(n)                                                                             \
-    case n:                                                                                    \
-        return fx_mul_h##n(a, b, status);
-    if (__builtin_constant_p(s)) {
-        switch (s) { FX_SHIFTS(FX_CASE) }
-    }
-#undef FX_CASE
-#endif
-    return fx_mul_shr_c(a, b, s, status);
-}
+FX_MUL_KERNEL(fx_mul_shr, h, fx_mul_shr_c)
 
 /* a · b · 2^-s for an int16 b (1 <= s <= 30), ties away from zero like fx_mul_rs, and the
  * same bits: two 16 × 16 hardware products and byte shifts, no int64. Only a = INT32_MIN,
