@@ -39,12 +39,11 @@ def _show(args: argparse.Namespace, table: Table, data: Any) -> None:
         console.print(table)
 
 
-def _add_board_options(p: argparse.ArgumentParser) -> None:
+def _add_board_options(p: argparse.ArgumentParser, default: str = DEFAULT_BOARD) -> None:
     p.add_argument(
         "--board",
-        default=DEFAULT_BOARD,
-        help=f"{', '.join(VIRTUAL_BOARDS)}, or a serial port / pyserial URL "
-        f"(default {DEFAULT_BOARD})",
+        default=default,
+        help=f"{', '.join(VIRTUAL_BOARDS)}, or a serial port / pyserial URL (default {default})",
     )
     p.add_argument(
         "--baud",
@@ -672,8 +671,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         "sweep", help="Monte Carlo: a scenario over perturbed plants, error and flag distributions"
     )
     p.add_argument("scenario", help="a scenario .toml, or the name of a shipped one")
-    _add_board_options(p)
-    p.set_defaults(board="native")
+    _add_board_options(p, default="native")
     p.add_argument("-n", "--drives", type=int, default=20, help="perturbed drives (default 20)")
     p.add_argument(
         "--vary",

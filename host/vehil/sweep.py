@@ -218,7 +218,9 @@ def run(
         )
         done.append(Drive(i, sc.seed, drawn, evaluate(series_from_run(result))))
         if console is not None:
-            console.print(f"drive {i}/{drives}: {done[-1].figures.verdict}", highlight=False)
+            console.print(
+                escape(f"drive {i}/{drives}: {done[-1].figures.verdict}"), highlight=False
+            )
     return Sweep(scenario, board_name, found, shared, done[0], done[1:], out)
 
 
