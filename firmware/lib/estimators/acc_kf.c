@@ -8,7 +8,7 @@
 
 enum { P_T, P_RW, P_QV, P_QB, P_R, P_P0V, P_P0B, P_RBAR, P_C1, P_C2, P_VG, P_B0, N_PARAMS = P_B0 + 5 };
 
-static const param_range_t ranges[N_PARAMS] = {
+static const ROM param_range_t ranges[N_PARAMS] = {
     {1e-4f, 0.1f, 30}, {0.1f, 1.0f, 24},  {0.0f, 1.0f, 30},  {0.0f, 1.0f, 30},
     {1e-6f, 100.0f, 24}, {0.0f, 7.9f, 24}, {0.0f, 1.0f, 30}, {-1.0f, 1.0f, 30},
     {0.0f, 1.0f, 0},   {0.0f, 1.0f, 0},   {0.0f, 10.0f, 16}, {-2.0f, 2.0f, 29},

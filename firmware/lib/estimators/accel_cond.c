@@ -5,7 +5,7 @@
 #define PI_F 3.14159265f
 #define SQRT2_F 1.41421356f
 
-const param_range_t accel_cond_ranges[ACCEL_COND_N_PARAMS] = {
+const ROM param_range_t accel_cond_ranges[ACCEL_COND_N_PARAMS] = {
     {0.01f, 10.0f, 24}, {1.0f, 45.0f, 24}, {0.0f, 5.0f, 24}};
 
 /* tan x for |x| < pi/2 by Lambert's continued fraction (8 levels: < 1e-9 at x = 1). */

@@ -65,7 +65,7 @@ typedef struct {
     int32_t x;                      /* Q28 */
 } accel_chan_q_t;
 
-extern const param_range_t accel_cond_ranges[ACCEL_COND_N_PARAMS];
+extern const ROM param_range_t accel_cond_ranges[ACCEL_COND_N_PARAMS];
 
 void accel_cond_design_f32(accel_cond_f32_t *c, const uint8_t *params, uint8_t first,
                            uint8_t mode, float T);

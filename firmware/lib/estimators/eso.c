@@ -9,7 +9,7 @@
 enum { P_T, P_EPS, P_VARIANT, N_OWN };
 #define N_PARAMS (N_OWN + SUSP_ECU_N_PARAMS)
 
-static const param_range_t ranges[N_OWN] = {{1e-4f, 0.05f, 30}, {0.02f, 2.0f, 24}, {0.0f, 1.0f, 0}};
+static const ROM param_range_t ranges[N_OWN] = {{1e-4f, 0.05f, 30}, {0.02f, 2.0f, 24}, {0.0f, 1.0f, 0}};
 
 /* -- float32 ------------------------------------------------------------- */
 

@@ -3,7 +3,7 @@
 #include "linalg/mat_f32.h"
 #include "proto/wire.h"
 
-static const param_range_t own_ranges[EV_N_FORCE_PARAMS] = {EV_FORCE_RANGES};
+static const ROM param_range_t own_ranges[EV_N_FORCE_PARAMS] = {EV_FORCE_RANGES};
 
 static void ev_ekf_reset(void *state)
 {

@@ -13,7 +13,7 @@ static void ev_ekf3_reset(void *state)
     s->started = 0;
 }
 
-static const param_range_t own_ranges[] = {{0.0f, 1.0f, 16}}; /* tires: 0 MF, 1 linear */
+static const ROM param_range_t own_ranges[] = {{0.0f, 1.0f, 16}}; /* tires: 0 MF, 1 linear */
 
 static uint8_t ev_ekf3_configure(void *state, uint8_t mode, const uint8_t *params)
 {
@@ -22,7 +22,7 @@ static uint8_t ev_ekf3_configure(void *state, uint8_t mode, const uint8_t *param
     if (bad != 0u) {
         return bad;
     }
-    s->model.linear = param_value(params, EV_N_PARAMS, mode, own_ranges[0].q) >= 0.5f;
+    s->model.linear = param_value(params, EV_N_PARAMS, mode, param_range_q(own_ranges, 0)) >= 0.5f;
     ev_ekf3_reset(s);
     return 0;
 }

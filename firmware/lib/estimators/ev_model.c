@@ -33,7 +33,7 @@
 static const float lx[4] = {L_F, L_F, -L_R, -L_R};
 static const float byw[4] = {0.5f * TRACK, -0.5f * TRACK, 0.5f * TRACK, -0.5f * TRACK};
 
-static const param_range_t ranges[EV_N_PARAMS] = {
+static const ROM param_range_t ranges[EV_N_PARAMS] = {
     {1e-3f, 0.05f, 16},  {0.05f, 1.2f, 16},  {0.5f, 60.0f, 16},   {1e-6f, 100.0f, 16},
     {1e-8f, 10.0f, 16},  {1e-10f, 1.0f, 16}, {1e-10f, 1.0f, 16},
     {1e-12f, 1.0f, 16},  {1e-8f, 100.0f, 16}, {1e-8f, 100.0f, 16},

@@ -7,7 +7,7 @@
 #include "proto/wire.h"
 
 enum { P_ALPHA = EV_N_FORCE_PARAMS, N_OWN };
-static const param_range_t own_ranges[N_OWN] = {EV_FORCE_RANGES, {1e-4f, 1.0f, 16}};
+static const ROM param_range_t own_ranges[N_OWN] = {EV_FORCE_RANGES, {1e-4f, 1.0f, 16}};
 
 static void ev_ukf_reset(void *state)
 {

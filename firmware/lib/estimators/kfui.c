@@ -8,7 +8,7 @@
 enum { P_T, P_Q, P_RX, P_RA, P_P0, P_S0, N_OWN };
 #define N_PARAMS (N_OWN + SUSP_ECU_N_PARAMS)
 
-static const param_range_t ranges[N_OWN] = {
+static const ROM param_range_t ranges[N_OWN] = {
     {1e-4f, 0.05f, 30}, {1e-9f, 1e3f, 16}, {1e-9f, 1e3f, 16},
     {1e-9f, 1e3f, 16},  {0.0f, 1e3f, 16}, {0.0f, 1e3f, 16},
 };

@@ -6,7 +6,7 @@
 #include "proto/messages.h"
 #include "proto/wire.h"
 
-const param_range_t longit_ranges[LONGIT_N_PARAMS] = {
+const ROM param_range_t longit_ranges[LONGIT_N_PARAMS] = {
     {0.0f, 0.1f, 30},  {0.5f, 2.0f, 24}, {9.0f, 10.5f, 24}, {100.0f, 30000.0f, 16},
     {0.0f, 20.0f, 24}, {1e-3f, 1.0f, 30}, {0.0f, 50.0f, 16},
 };
@@ -26,7 +26,7 @@ uint8_t longit_check(const uint8_t *params, uint8_t mode, const param_range_t *o
 
 static float shared(const uint8_t *params, uint8_t first, uint8_t i, uint8_t mode)
 {
-    return param_value(params, (uint8_t)(first + i), mode, longit_ranges[i].q);
+    return param_value(params, (uint8_t)(first + i), mode, param_range_q(longit_ranges, i));
 }
 
 void longit_configure(longit_t *l, const uint8_t *params, uint8_t first, uint8_t mode)

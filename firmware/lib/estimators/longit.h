@@ -20,7 +20,7 @@ enum {
     LONGIT_PREFILTER_HZ,
     LONGIT_N_PARAMS
 };
-extern const param_range_t longit_ranges[LONGIT_N_PARAMS];
+extern const ROM param_range_t longit_ranges[LONGIT_N_PARAMS];
 
 typedef struct {
     float eps, half_rho, g_cos; /* ε, ½ρ, g / cos ε */

@@ -9,7 +9,7 @@
 
 enum { P_T, P_RW, P_WHEEL, P_GAMMA, P_XI, P_RG0, P_A, P_SIGN, P_READING, N_PARAMS };
 
-static const param_range_t ranges[N_PARAMS] = {
+static const ROM param_range_t ranges[N_PARAMS] = {
     {1e-4f, 0.1f, 30},  {0.1f, 1.0f, 24}, {0.0f, 2.0f, 0}, {1.0f, 1.9f, 30}, {0.0f, 1.0f, 30},
     {0.0f, 100.0f, 24}, {0.1f, 100.0f, 24}, {0.0f, 1.0f, 0}, {0.0f, 1.0f, 0},
 };

@@ -23,9 +23,9 @@ int32_t param_q(const uint8_t *params, uint8_t i) { return get_i32(params + 4u *
 uint8_t params_check(const uint8_t *params, uint8_t mode, const param_range_t *ranges, uint8_t n)
 {
     for (uint8_t i = 0; i < n; i++) {
-        float x = param_value(params, i, mode, ranges[i].q);
+        float x = param_value(params, i, mode, param_range_q(ranges, i));
         /* Written so that NaN fails too. */
-        if (!(x >= ranges[i].lo && x <= ranges[i].hi)) {
+        if (!(x >= rom_float(&ranges[i].lo_rom) && x <= rom_float(&ranges[i].hi_rom))) {
             return (uint8_t)(i + 1u);
         }
     }

@@ -5,10 +5,22 @@
 
 #include <stdint.h>
 
+#include "rom/rom.h"
+
+/* One parameter's accepted range. Tables of them live in flash, declared
+ * `static const ROM param_range_t name[N] = {{lo, hi, q}, ...};`, and are read only
+ * through param_range_q and params_check (the fields' names say so: a plain read of
+ * a flash table gives a wrong value on the AVR). */
 typedef struct {
-    float lo, hi; /* accepted range, inclusive */
-    uint8_t q;    /* fractional bits of the value in FIXED mode */
+    float lo_rom, hi_rom; /* accepted range, inclusive */
+    uint8_t q_rom;        /* fractional bits of the value in FIXED mode */
 } param_range_t;
+
+/* The fractional bits of ranges[i]. */
+static inline uint8_t param_range_q(const param_range_t *ranges, uint8_t i)
+{
+    return rom_u8(&ranges[i].q_rom);
+}
 
 /* Parameter i as a float, whatever the mode (for checks, not for fixed-point maths). */
 float param_value(const uint8_t *params, uint8_t i, uint8_t mode, uint8_t q);

@@ -2,7 +2,7 @@
 
 #include "fixmath/fixmath.h"
 
-const param_range_t qcar_ranges[QCAR_N_PARAMS] = {
+const ROM param_range_t qcar_ranges[QCAR_N_PARAMS] = {
     {50.0f, 2000.0f, 16}, {35.0f, 500.0f, 16},  {0.0f, 1e6f, 8},     {-5e6f, 5e6f, 8},
     {-8e6f, 8e6f, 8},     {0.0f, 2e4f, 16},     {-2e4f, 2e4f, 16},   {1e4f, 2e6f, 8},
 };
@@ -11,7 +11,7 @@ void qcar_read_f32(qcar_f32_t *m, const uint8_t *params, uint8_t first, uint8_t 
 {
     float v[QCAR_N_PARAMS];
     for (uint8_t i = 0; i < QCAR_N_PARAMS; i++) {
-        v[i] = param_value(params, (uint8_t)(first + i), mode, qcar_ranges[i].q);
+        v[i] = param_value(params, (uint8_t)(first + i), mode, param_range_q(qcar_ranges, i));
     }
     *m = (qcar_f32_t){v[0], v[1], v[2], v[3], v[4], v[5], v[6], v[7]};
 }

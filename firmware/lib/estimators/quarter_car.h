@@ -22,7 +22,7 @@ typedef struct {
     int32_t inv_m_s, inv_m_us, inv_k_us, m_us;
 } qcar_q_t;
 
-extern const param_range_t qcar_ranges[QCAR_N_PARAMS];
+extern const ROM param_range_t qcar_ranges[QCAR_N_PARAMS];
 
 /* The model from CONFIG's values starting at parameter `first`. */
 void qcar_read_f32(qcar_f32_t *m, const uint8_t *params, uint8_t first, uint8_t mode);

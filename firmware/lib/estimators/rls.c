@@ -9,7 +9,7 @@ enum { P_LAMBDA, P_P0_M, P_P0_CDA, P_CAP, N_OWN };
 #define N_PARAMS (N_OWN + LONGIT_N_PARAMS)
 #define ONE_Q30 ((int32_t)1 << 30)
 
-static const param_range_t ranges[N_OWN] = {
+static const ROM param_range_t ranges[N_OWN] = {
     {0.5f, 1.0f, 30}, {0.0f, 1e9f, 0}, {0.0f, 1e4f, 16}, {1.0f, 1e6f, 0}};
 
 /* FIXED's Q formats: ψ = [v̇, ½ρv², g/cos ε] as longit gives them, θ = [m, C_dA_f, m sin]. */
@@ -179,11 +179,11 @@ static uint8_t rls_configure(void *state, uint8_t mode, const uint8_t *params)
     }
     longit_configure(&s->model, params, N_OWN, mode);
     s->mode = mode;
-    s->lambda = param_value(params, P_LAMBDA, mode, ranges[P_LAMBDA].q);
-    float p0_m = param_value(params, P_P0_M, mode, ranges[P_P0_M].q);
-    float p_cap = param_value(params, P_CAP, mode, ranges[P_CAP].q);
+    s->lambda = param_value(params, P_LAMBDA, mode, param_range_q(ranges, P_LAMBDA));
+    float p0_m = param_value(params, P_P0_M, mode, param_range_q(ranges, P_P0_M));
+    float p_cap = param_value(params, P_CAP, mode, param_range_q(ranges, P_CAP));
     s->p0[0] = s->p0[2] = p0_m;
-    s->p0[1] = param_value(params, P_P0_CDA, mode, ranges[P_P0_CDA].q);
+    s->p0[1] = param_value(params, P_P0_CDA, mode, param_range_q(ranges, P_P0_CDA));
     for (uint8_t i = 0; i < 3u; i++) {
         s->cap[i] = p_cap * s->p0[i];
     }

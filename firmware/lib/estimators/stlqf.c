@@ -12,7 +12,7 @@ enum { P_CHI1, P_CHI2, P_A11, P_A12, P_A13, P_A22, P_A23, P_A33, P_MU, P_COND, N
 #define N_PARAMS (N_OWN + LONGIT_N_PARAMS)
 #define CENTRE (STLQF_ROWS - 1u - STLQF_WL) /* row of the window centre */
 
-static const param_range_t ranges[N_OWN] = {
+static const ROM param_range_t ranges[N_OWN] = {
     {0.0f, 10.0f, 24},     {0.0f, 10.0f, 24},     {-100.0f, 100.0f, 24},
     {-100.0f, 100.0f, 24}, {-100.0f, 100.0f, 24}, {-100.0f, 100.0f, 24}, {-100.0f, 100.0f, 24},
     {-100.0f, 100.0f, 24}, {0.0f, 1.0f, 30},      {1.0f, 1e9f, 0},

@@ -2,7 +2,7 @@
 
 #include "fixmath/fixmath.h"
 
-const param_range_t susp_ctrl_ranges[SUSP_CTRL_N_PARAMS] = {
+const ROM param_range_t susp_ctrl_ranges[SUSP_CTRL_N_PARAMS] = {
     {0.0f, 1.0f, 0},    {0.0f, 1e4f, 16},      {0.0f, 8e6f, 8},   {0.0f, 8e6f, 8},
     {0.0f, 8e6f, 8},    {1e-10f, 1e-3f, 40},   {1e-3f, 1.0f, 30}, {0.0f, 2e4f, 16},
 };
@@ -14,7 +14,7 @@ void susp_ctrl_design_f32(susp_ctrl_f32_t *c, const uint8_t *params, uint8_t fir
 {
     float p[SUSP_CTRL_N_PARAMS];
     for (uint8_t i = 0; i < SUSP_CTRL_N_PARAMS; i++) {
-        p[i] = param_value(params, (uint8_t)(first + i), mode, susp_ctrl_ranges[i].q);
+        p[i] = param_value(params, (uint8_t)(first + i), mode, param_range_q(susp_ctrl_ranges, i));
     }
     float h = p[P_H], hh = 0.5f * h * h;
     /* b_i: how each predicted output moves with u (note §1.7). */

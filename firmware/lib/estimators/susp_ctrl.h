@@ -34,7 +34,7 @@ typedef struct {
     int32_t x_s, v_s, x_us, v_us, F1, F2, x_r;
 } susp_est_q_t;
 
-extern const param_range_t susp_ctrl_ranges[SUSP_CTRL_N_PARAMS];
+extern const ROM param_range_t susp_ctrl_ranges[SUSP_CTRL_N_PARAMS];
 
 void susp_ctrl_design_f32(susp_ctrl_f32_t *c, const uint8_t *params, uint8_t first,
                           uint8_t mode, const qcar_f32_t *m);

@@ -11,7 +11,7 @@ enum {
     P_M, P_RW, P_IW, P_KB, P_PSI, P_HCG, P_LF, P_LR, P_VMAX, P_NISMAX, N_PARAMS
 };
 
-static const param_range_t ranges[N_PARAMS] = {
+static const ROM param_range_t ranges[N_PARAMS] = {
     {1e-4f, 0.1f, 0},     {3.0f, 5.0f, 0},   {1.0f, 10.0f, 0},  {0.0f, 1.0f, 0},
     {0.0f, 2.0f, 0},      {1.0f, 500.0f, 0}, {0.0f, 1.0f, 0},   {1e-6f, 1e3f, 0},
     {0.0f, 10.0f, 0},     {0.0f, 10.0f, 0},  {0.0f, 100.0f, 0}, {1e-6f, 100.0f, 0},

@@ -5,7 +5,9 @@ avr-libc's start-up copies the initialised RAM data from flash with ELPM. QEMU 7
 calculation"), so data loaded from above 64 KB starts wrong on the qemu board. avr-ld
 loads `.data` after all the code; this script ends `.text` after the start-up code
 (vectors, tables, .init*), loads `.data` there, and puts the rest of the code in an
-output section `.code` after it. The script is derived at build time from the
+output section `.code` after it. The flash tables (`.progmem*`, read with LPM and a
+16-bit Z: firmware/lib/rom/rom.h) sit in that low `.text` too; the script asserts that
+it ends below 64 KB. The script is derived at build time from the
 installed linker's default, so it follows whatever binutils is installed.
 """
 
@@ -19,6 +21,13 @@ CODE_SECTION = ".code"
 
 _DATA = re.compile(r"^[ \t]*\.data[ \t]*:[ \t]*\n.*?\}[ \t]*> data AT> text[ \t]*\n", re.M | re.S)
 _CODE_START = re.compile(r"^[ \t]*\*\(\.text\)[ \t]*\n", re.M)
+
+
+_BELOW_64K = (
+    '  ASSERT(ADDR(.text) + SIZEOF(.text) + SIZEOF(.data) <= 0x10000, "vehil: the flash '
+    "tables (.progmem), start-up code and .data's load image must end below 64 KB, "
+    "where LPM and QEMU's ELPM reach them\")\n"
+)
 
 
 class LinkerScriptError(RuntimeError):
@@ -54,6 +63,7 @@ def data_low(script: str) -> str:
     return (
         script[: code.start()]
         + "  }  > text\n"
+        + _BELOW_64K
         + data.group(0)
         + f"  {CODE_SECTION}   :\n  {{\n"
         + script[code.start() : data.start()]
