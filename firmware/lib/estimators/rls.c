@@ -4,6 +4,7 @@
 
 #include "fixmath/fixmath.h"
 #include "proto/wire.h"
+#include "rom/rom.h"
 
 enum { P_LAMBDA, P_P0_M, P_P0_CDA, P_CAP, N_OWN };
 #define N_PARAMS (N_OWN + LONGIT_N_PARAMS)
@@ -78,17 +79,18 @@ static int32_t mul_shr(int32_t a, int32_t b, int16_t n, uint8_t *st)
 /* 1 / s for s in [1/2, 1) (Q30), in Q29 to ~30 bits (fx_recip's 5e-7 is coarse for a P near
  * singular): 1/s at s = 1/2 + i/32 (Q29), interpolated
  * (within 0.2 %), then two Newton steps y (2 - s y), each squaring the error. */
-static const int32_t recip_table[17] = {
+static const ROM ROM_TABLE(int32_t, 17) recip_table = {{
     1073741824, 1010580540, 954437177, 904203641, 858993459, 818089009,
     780903145,  746950834,  715827883, 687194767, 660764199, 636291451,
     613566757,  592409282,  572662306, 554189329, 536870912,
-};
+}};
 
 static int32_t reciprocal(int32_t s, uint8_t *st)
 {
     uint32_t x = (uint32_t)s - ((uint32_t)1 << 29);
     uint8_t i = (uint8_t)(x >> 25);
-    int32_t y = recip_table[i] + fx_mul_shr(recip_table[i + 1u] - recip_table[i],
+    int32_t y0 = rom_i32(ROM_AT(recip_table, i)), y1 = rom_i32(ROM_AT(recip_table, i + 1u));
+    int32_t y = y0 + fx_mul_shr(y1 - y0,
                                             (int32_t)(x & (((uint32_t)1 << 25) - 1u)), 25, st);
     for (uint8_t k = 0; k < 2u; k++) {
         y = fx_mul_shr(y, ONE_Q30 - fx_mul_shr(s, y, 30, st), 29, st);

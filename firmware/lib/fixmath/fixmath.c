@@ -2,6 +2,8 @@
 
 #include <string.h>
 
+#include "rom/rom.h"
+
 int32_t fx_sat(int64_t x, uint8_t *status)
 {
     if (x > FX_MAX) {
@@ -73,11 +75,11 @@ int32_t fx_div(int32_t a, uint8_t qa, int32_t b, uint8_t qb, uint8_t q_out, uint
 }
 
 /* 2 / (1 + k / 32) in Q14, k = 0..32: 1/x on x in [1/2, 1]. */
-static const uint16_t recip_table[33] = {
+static const ROM ROM_TABLE(uint16_t, 33) recip_table = {{
     32768, 31775, 30840, 29959, 29127, 28340, 27594, 26887, 26214, 25575, 24966,
     24385, 23831, 23302, 22795, 22310, 21845, 21400, 20972, 20560, 20165, 19784,
     19418, 19065, 18725, 18396, 18079, 17772, 17476, 17190, 16913, 16644, 16384,
-};
+}};
 
 /* Shifts v (> 0) until bit 30 is its top bit; returns by how much to the left (-1: 2^31,
  * the magnitude of INT32_MIN, shifted right). Whole bytes first. */
@@ -105,7 +107,8 @@ fx_recip_t fx_recip(int32_t b)
     uint8_t n = (uint8_t)normalize30(&x); /* b <= INT32_MAX: a left shift */
     uint8_t k = (uint8_t)((uint8_t)(x >> 24) >> 1) & 31u; /* (x >> 25) by bytes */
     uint16_t f = (uint16_t)((x >> 8) >> 1);                /* the next 16 bits */
-    uint16_t lo = recip_table[k], d = (uint16_t)(lo - recip_table[k + 1u]);
+    uint16_t lo = rom_u16(ROM_AT(recip_table, k));
+    uint16_t d = (uint16_t)(lo - rom_u16(ROM_AT(recip_table, k + 1u)));
     int32_t y = (int32_t)(((uint32_t)lo << 16 >> 1) - ((uint32_t)d * f >> 1)); /* Q29 */
     uint8_t st = 0; /* nothing here can saturate: x y is within 1e-3 of 1 */
     int32_t t = fx_mul_rs((int32_t)x, y, 31, &st);            /* x y, Q29 */
@@ -176,38 +179,39 @@ int32_t fx_sqrt(int32_t a, uint8_t q, uint8_t *status)
 }
 
 /* tanh(k / 16) in Q15, k = 0..64. */
-static const uint16_t tanh_table[65] = {
+static const ROM ROM_TABLE(uint16_t, 65) tanh_table = {{
     0,     2045,  4075,  6073,  8025,  9919,  11743, 13486, 15143, 16706, 18173, 19542, 20813,
     21986, 23066, 24054, 24956, 25776, 26519, 27191, 27797, 28341, 28830, 29268, 29660, 30010,
     30322, 30600, 30847, 31067, 31262, 31435, 31589, 31726, 31846, 31953, 32048, 32132, 32206,
     32271, 32329, 32381, 32426, 32466, 32501, 32532, 32560, 32584, 32606, 32625, 32642, 32657,
     32670, 32681, 32691, 32700, 32708, 32715, 32721, 32727, 32732, 32736, 32740, 32743, 32746,
-};
+}};
 
 uint16_t fx_tanh_q15_pos(uint32_t pos)
 {
     /* pos >> 15 and the low 15 bits, by whole bytes (the AVR loops on other shifts) */
     uint8_t idx = (uint8_t)((uint8_t)(pos >> 16) << 1 | (uint8_t)((uint16_t)pos >> 15));
     uint16_t frac = (uint16_t)pos & 0x7fffu;
-    uint16_t lo = tanh_table[idx], d = (uint16_t)(tanh_table[idx + 1u] - lo);
+    uint16_t lo = rom_u16(ROM_AT(tanh_table, idx));
+    uint16_t d = (uint16_t)(rom_u16(ROM_AT(tanh_table, idx + 1u)) - lo);
     /* (d · frac + 2^14) >> 15, as a doubling and a two-byte shift */
     return (uint16_t)(lo + (uint16_t)((((uint32_t)d * frac + 0x4000u) << 1) >> 16));
 }
 
 /* tanh(k / 16) in Q16, k = 0..64: tanh_f32's nodes. */
-static const uint16_t tanh_q16[65] = {
+static const ROM ROM_TABLE(uint16_t, 65) tanh_q16 = {{
     0,     4091,  8150,  12146, 16051, 19838, 23485, 26973, 30285, 33412, 36346, 39084, 41625,
     43972, 46131, 48108, 49912, 51552, 53038, 54382, 55593, 56683, 57660, 58536, 59320, 60019,
     60643, 61199, 61694, 62134, 62524, 62871, 63179, 63451, 63693, 63907, 64096, 64263, 64412,
     64543, 64659, 64761, 64852, 64932, 65003, 65065, 65120, 65169, 65212, 65250, 65283, 65313,
     65339, 65362, 65383, 65401, 65417, 65431, 65443, 65454, 65464, 65472, 65480, 65486, 65492,
-};
+}};
 
 /* 1 - tanh(4 + k / 4) in Q32, k = 0..20: its tail up to 9, past which float32 rounds to 1. */
-static const uint32_t tanh_tail_q32[21] = {
+static const ROM ROM_TABLE(uint32_t, 21) tanh_tail_q32 = {{
     2880636, 1747424, 1059951, 642924, 389965, 236530, 143464, 87016, 52778, 32012, 19416,
     11776,   7143,    4332,    2628,   1594,   967,    586,    356,    216,    131,
-};
+}};
 
 /* tanh's slope on the Q16 grid, per cell of 1/16: (1 - y²) / 16, in Q16. */
 static int16_t tanh_cell_slope(uint16_t y)
@@ -253,7 +257,7 @@ float tanh_f32(float x)
         m >>= sh;
         uint8_t k = (uint8_t)((uint8_t)(m >> 16) << 1 | (uint8_t)((uint16_t)m >> 15));
         uint16_t t = (uint16_t)m & 0x7fffu; /* Q15 */
-        uint16_t y0 = tanh_q16[k], y1 = tanh_q16[k + 1u];
+        uint16_t y0 = rom_u16(ROM_AT(tanh_q16, k)), y1 = rom_u16(ROM_AT(tanh_q16, k + 1u));
         int16_t m0 = tanh_cell_slope(y0), m1 = tanh_cell_slope(y1);
         int16_t d = (int16_t)(y1 - y0);
         int16_t c2 = (int16_t)(3 * d - 2 * m0 - m1), c3 = (int16_t)(m0 + m1 - 2 * d);
@@ -269,8 +273,8 @@ float tanh_f32(float x)
         if (k >= 20u) {
             y31 = (uint32_t)1 << 31;
         } else {
-            uint32_t g = tanh_tail_q32[k] -
-                         ((tanh_tail_q32[k] - tanh_tail_q32[k + 1u]) * (uint8_t)q >> 8);
+            uint32_t g0 = rom_u32(ROM_AT(tanh_tail_q32, k));
+            uint32_t g = g0 - ((g0 - rom_u32(ROM_AT(tanh_tail_q32, k + 1u))) * (uint8_t)q >> 8);
             y31 = ((uint32_t)1 << 31) - (g >> 1);
         }
     } else {
@@ -341,10 +345,10 @@ int32_t fx_asin_q30(int32_t x, uint8_t *status)
 }
 
 /* log2(1 + k/16) in Q24, k = 0..16. */
-static const int32_t log2_table[17] = {
+static const ROM ROM_TABLE(int32_t, 17) log2_table = {{
     0,        1467383,  2850868,  4159533,  5401057,  6581994,  7707984,  8783912, 9814042,
     10802114, 11751428, 12664911, 13545168, 14394532, 15215099, 16008758, 16777216,
-};
+}};
 
 int32_t fx_log2_q24(int32_t x, uint8_t q)
 {
@@ -362,7 +366,7 @@ int32_t fx_log2_q24(int32_t x, uint8_t q)
         top--;
     }
     uint32_t idx = (m >> 27) & 15u, frac = (m >> 17) & 0x3ffu; /* f in 16ths, the rest */
-    int32_t lo = log2_table[idx], hi = log2_table[idx + 1u];
+    int32_t lo = rom_i32(ROM_AT(log2_table, idx)), hi = rom_i32(ROM_AT(log2_table, idx + 1u));
     int32_t mant = lo + (int32_t)(((uint32_t)(hi - lo) * frac + (1u << 9)) >> 10);
     return (int32_t)(top - (int8_t)q) * 16777216 + mant;
 }
