@@ -1,6 +1,7 @@
 # The two commands of the README, and the steps under them.
 #   make demo   set up, build, and run a scenario on the default virtual board, with a report
-#   make test   set up, build, and run every test (unit, native C, HIL on simavr and QEMU)
+#   make test   set up, build, and run every test (unit, native C, HIL on simavr and QEMU),
+#               one pytest-xdist worker per core, each with its own boards
 
 VEHIL := .venv/bin/vehil
 
@@ -16,7 +17,7 @@ demo: build
 	$(VEHIL) run sine --board simavr
 
 test: build lint
-	.venv/bin/pytest
+	.venv/bin/pytest -n auto
 
 lint: setup
 	.venv/bin/ruff check host tests platform firmware/build_id.py

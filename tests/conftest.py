@@ -1,13 +1,21 @@
-"""Shared fixtures: build products once per session, boards per module."""
+"""Shared fixtures: build products once per session, boards per module.
+
+Under pytest-xdist (`make test` runs `-n auto`) each worker is its own session: its own
+temporary folder and runs folder, and its own boards (each board process picks its own pty
+or loopback port). The build is shared, so workers take it in turn under a file lock; after
+`make build` it finds everything up to date.
+"""
 
 from __future__ import annotations
 
+import fcntl
 import os
 from pathlib import Path
 
 import pytest
 
 from vehil.build import build
+from vehil.paths import BUILD_DIR
 
 
 @pytest.fixture(scope="session", autouse=True)
@@ -18,8 +26,13 @@ def _runs_in_a_temporary_folder(tmp_path_factory: pytest.TempPathFactory) -> Non
 
 @pytest.fixture(scope="session")
 def built() -> dict:
-    """Builds the firmware, the simavr bridge and the native library (incrementally)."""
-    return build()
+    """Builds the firmware, the simavr bridge and the native library (incrementally), one
+    worker at a time: two builds writing the same objects would corrupt them."""
+    lock = BUILD_DIR / ".build.lock"
+    lock.parent.mkdir(exist_ok=True)
+    with lock.open("w") as f:
+        fcntl.flock(f, fcntl.LOCK_EX)
+        return build()
 
 
 @pytest.fixture(scope="session")

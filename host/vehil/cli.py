@@ -299,10 +299,38 @@ def _finish_run(
     return figures.verdict.exit_status
 
 
+def _forwarded_run_options(args: argparse.Namespace) -> list[str]:
+    """The options of `vehil run` that each of several runs gets as given."""
+    options = ["--board", args.board, "--timeout", str(args.timeout)]
+    given = {"--baud": args.baud, "--faults": args.faults, "--window": args.window}
+    for flag, value in given.items():
+        if value is not None:
+            options += [flag, str(value)]
+    return options + ["--realtime"] * args.realtime + ["--profile"] * args.profile
+
+
+def cmd_run_several(args: argparse.Namespace) -> int:
+    from vehil import batch
+
+    paths = batch.expand(args.scenario)
+    if len(paths) == 1 and args.jobs == 1:
+        args.scenario = [str(paths[0])]
+        return cmd_run(args)
+    if args.jobs < 1:
+        raise VehilError(f"--jobs {args.jobs}: give 1 or more boards to run on")
+    console.print(f"{len(paths)} scenarios on {args.board}, {args.jobs} at a time")
+    outcomes = batch.run_all(
+        paths, _forwarded_run_options(args), args.jobs, Path(args.out) if args.out else None
+    )
+    title = f"{len(paths)} scenarios on {args.board} ({args.jobs} at a time)"
+    _show(args, batch.table(outcomes, title), [batch.to_json(o) for o in outcomes])
+    return batch.worst(outcomes)
+
+
 def cmd_run(args: argparse.Namespace) -> int:
     from vehil import runner, scenario
 
-    sc = scenario.load(args.scenario)
+    sc = scenario.load(args.scenario[0])
     recording = Path(args.out) / "run.arrow" if args.out else None
     board, profiled = _board(args), None
     if args.profile:
@@ -625,15 +653,26 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--samples", type=int, default=5000)
     p.set_defaults(func=cmd_demo)
 
-    p = sub.add_parser("run", help="run a scenario on a board, record it, and report")
-    p.add_argument("scenario", help="a scenario .toml, or the name of a shipped one")
+    p = sub.add_parser("run", help="run scenarios on boards, record them, and report")
+    p.add_argument(
+        "scenario",
+        nargs="+",
+        help="scenario .toml files, names of shipped ones, or globs ('manf-*', 'dir/*.toml')",
+    )
+    p.add_argument(
+        "--jobs",
+        type=int,
+        default=1,
+        help="boards run at once, one process each (several scenarios: one summary table; "
+        "--out DIR gets a folder per scenario)",
+    )
     _add_board_options(p)
     _add_run_options(p)
     p.add_argument("--window", type=int, default=None, help="samples in flight (lockstep)")
     p.add_argument(
         "--profile", action="store_true", help="simavr: cycles per function of every step, too"
     )
-    p.set_defaults(func=cmd_run)
+    p.set_defaults(func=cmd_run_several)
 
     p = sub.add_parser(
         "replay", help="run a recorded drive (recording, CSV, MDF4, CAN log) on a board"
