@@ -131,6 +131,27 @@ def test_fx_mul16_gives_the_bits_of_fx_mul_rs(native_lib) -> None:  # noqa: ANN0
                 assert got.value == want.value, (a, b, s)
 
 
+def test_fx_umul16_q15_gives_the_bits_of_fx_mul16(native_lib) -> None:  # noqa: ANN001
+    """The magnitude kernel (a < 2^31, b <= 2^15) against fx_mul16 at shift 15, on the edges
+    and random operands: the same bits, and never past int32."""
+    m16 = native_lib.fx_mul16_c
+    m16.argtypes = [ctypes.c_int32, ctypes.c_int16, ctypes.c_uint8, ctypes.POINTER(ctypes.c_uint8)]
+    m16.restype = ctypes.c_int32
+    um = native_lib.fx_umul16_q15_c
+    um.argtypes, um.restype = [ctypes.c_uint32, ctypes.c_uint16], ctypes.c_uint32
+    rng = np.random.default_rng(15)
+    edges = [0, 1, 2**15 - 1, 2**15, 2**16 - 1, 2**16, 2**31 - 2**15, 2**31 - 1]
+    ays = edges + [int(a) for a in rng.integers(0, 2**31, 400)]
+    bs = [0, 1, 2**14, 2**15 - 1] + [int(b) for b in rng.integers(0, 2**15, 100)]
+    for a in ays:
+        for b in bs:
+            status = ctypes.c_uint8(0)
+            assert um(a, b) == m16(a, b, 15, ctypes.byref(status)), (a, b)
+            assert status.value == 0, (a, b)
+    for a in ays:  # b = 2^15 (not an int16): the product is a itself
+        assert um(a, 2**15) == a, a
+
+
 def test_division_through_a_reciprocal_keeps_its_stated_error(native_lib) -> None:  # noqa: ANN001
     """fx_recip and fx_div_by (k = a / b as ACC's gains take it: Q28 / Q24 -> Q30) against
     exact quotients: relative error < 5e-7, or under one unit for small results; saturated

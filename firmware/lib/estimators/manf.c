@@ -104,17 +104,23 @@ static uint8_t step_q(manf_state_t *st, const uint8_t *in, uint8_t *out)
         } else if (grow == 1u) {
             s->rg = fx_mul(s->rg, 24, p->xi, 30, 24, &status);
         }
-        s->rg = s->rg < 0 ? 0 : (s->rg > p->a ? p->a : s->rg);
-        int32_t step = fx_mul16(s->rg, (int16_t)fx_tanh(e, 24, 15), 15, &status); /* Q24 */
-        if (!st->reading) {
-            step = fx_mul(step, 24, p->T, 30, 24, &status);
+        if ((uint32_t)s->rg > (uint32_t)p->a) { /* R_g >= 0 always: R_g(0), γ and ξ are */
+            s->rg = p->a;
         }
-        int32_t dv = st->printed_sign ? step : -step;
-        if (dv > p->limit || dv < -p->limit) {
-            dv = dv > 0 ? p->limit : -p->limit;
+        /* The step's magnitude R_g |tanh e| (T), Q24, then its sign: R_g >= 0 and the
+         * product is below a <= 100, so it cannot saturate, and one compare clamps it. */
+        uint32_t mag_e = e < 0 ? (uint32_t)0 - (uint32_t)e : (uint32_t)e;
+        uint32_t step = fx_umul16_q15((uint32_t)s->rg, fx_tanh_abs_q15(mag_e, 24));
+        if (!st->reading) {
+            step = (uint32_t)fx_mul((int32_t)step, 24, p->T, 30, 24, &status);
+        }
+        if (step > (uint32_t)p->limit) {
+            step = (uint32_t)p->limit;
             status |= STATUS_CLAMPED;
         }
-        s->v = fx_add(s->v, dv, &status);
+        /* v̂ moves against the error (with the printed sign: along it) */
+        s->v = (e < 0) == (st->printed_sign != 0) ? fx_sub(s->v, (int32_t)step, &status)
+                                                  : fx_add(s->v, (int32_t)step, &status);
     }
     put_i32(out, fx_rescale(s->v, 24, 16, &status));
     put_i32(out + 4, s->rg);

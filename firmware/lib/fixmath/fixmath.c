@@ -49,6 +49,9 @@ int32_t fx_mul16_c(int32_t a, int16_t b, uint8_t s, uint8_t *status)
     return fx_mul16(a, b, s, status);
 }
 
+/* fx_umul16_q15 out of line, for the native tests. */
+uint32_t fx_umul16_q15_c(uint32_t a, uint16_t b) { return fx_umul16_q15(a, b); }
+
 int32_t fx_mul_shr_c(int32_t a, int32_t b, uint8_t s, uint8_t *status)
 {
     return fx_sat(((int64_t)a * b + ((int64_t)1 << (s - 1u))) >> s, status);

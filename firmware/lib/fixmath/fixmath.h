@@ -175,6 +175,23 @@ FX_INLINE int32_t fx_mul16(int32_t a, int16_t b, uint8_t s, uint8_t *status)
 
 int32_t fx_mul16_c(int32_t a, int16_t b, uint8_t s, uint8_t *status);
 
+/* a · b · 2^-15 rounded half up, for magnitudes: a < 2^31, b <= 2^15 (a Q15 fraction such
+ * as |tanh|), so the result stays below 2^31 and nothing saturates. fx_mul16's bits for
+ * these operands (ties away from zero is half up on a magnitude), in two unsigned 16 × 16
+ * hardware products, a one-bit shift and byte moves: none of fx_mul16's sign handling or
+ * range checks. */
+FX_INLINE uint32_t fx_umul16_q15(uint32_t a, uint16_t b)
+{
+    uint16_t ah = (uint16_t)(a >> 16);
+    uint16_t al = (uint16_t)a;
+    __asm__("" : "+r"(ah), "+r"(al), "+r"(b)); /* keep the 16 × 16 products (fx_mul16) */
+    uint32_t hi = (uint32_t)ah * b;
+    uint32_t lo = (uint32_t)al * b; /* < 2^31 - 2^15: doubling it with the half cannot wrap */
+    return (hi << 1) + (((lo + 0x4000u) << 1) >> 16);
+}
+
+uint32_t fx_umul16_q15_c(uint32_t a, uint16_t b);
+
 /* a (qa) * b (qb) -> q_out, ties away from zero; qa + qb <= q_out (no fraction bit to
  * drop) or a shift past 62 goes through int64 (fx_mul_wide). */
 int32_t fx_mul_wide(int32_t a, uint8_t qa, int32_t b, uint8_t qb, uint8_t q_out, uint8_t *status);
@@ -237,16 +254,19 @@ uint16_t fx_tanh_q15_pos(uint32_t pos);
  * over [0, 4] with linear interpolation; |error| <= 7e-4 for every x (3.92e-4 inside
  * [-4, 4], tanh(4)'s distance to 1 beyond). With qx and q_out constants, the conversions
  * are constant shifts. */
+/* tanh(|x|) in Q15 for a magnitude |x| in qx (4 <= qx <= 31): fx_tanh without the sign. */
+FX_INLINE uint16_t fx_tanh_abs_q15(uint32_t mag, uint8_t qx)
+{
+    if (mag >= (uint32_t)64 << (qx - 4u)) {
+        return 32746; /* tanh(4), the table's last entry */
+    }
+    return fx_tanh_q15_pos(qx >= 19u ? mag >> (qx - 19u) : mag << (19u - qx));
+}
+
 FX_INLINE int32_t fx_tanh(int32_t x, uint8_t qx, uint8_t q_out)
 {
     uint32_t mag = x < 0 ? (uint32_t)0 - (uint32_t)x : (uint32_t)x;
-    int32_t y;
-    if (mag >= (uint32_t)64 << (qx - 4u)) {
-        y = 32746; /* tanh(4), the table's last entry */
-    } else {
-        y = fx_tanh_q15_pos(qx >= 19u ? mag >> (qx - 19u) : mag << (19u - qx));
-    }
-    y = (int32_t)((uint32_t)y << (q_out - 15u));
+    int32_t y = (int32_t)((uint32_t)fx_tanh_abs_q15(mag, qx) << (q_out - 15u));
     return x < 0 ? -y : y;
 }
 
