@@ -136,6 +136,10 @@ def cmd_build(args: argparse.Namespace) -> int:
     parts = tuple(args.only) if args.only else PARTS
     for part, path in build(parts, verbose=args.verbose).items():
         console.print(f"[green]built[/] {part}: {path}")
+        if part == "firmware":
+            from vehil.build.budget import budget
+
+            console.print(f"  {budget(path).summary()}")
     return 0
 
 

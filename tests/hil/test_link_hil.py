@@ -10,6 +10,7 @@ import struct
 import pytest
 
 from vehil.boards import open_board
+from vehil.build.budget import DEEPEST_SHIPPED_STACK, USER_ESTIMATOR_RAM
 from vehil.errors import BoardError
 from vehil.ping import run_ping
 from vehil.protocol.schema import SCHEMA
@@ -17,10 +18,6 @@ from vehil.protocol.schema import SCHEMA
 pytestmark = pytest.mark.hil
 
 BOARDS = ["simavr", "qemu"]
-# Stack high-water (STATS) of the deepest shipped estimator's run on simavr, rounded up:
-# STLQF FIXED, 1,076 B in stlqf/mass-step-fixed (link, interrupts and step included).
-DEEPEST_SHIPPED_STACK = 1_100
-USER_ESTIMATOR_RAM = 4_096  # state and stack of a user's estimator, on top of the above
 
 
 @pytest.fixture(scope="module", params=BOARDS)
