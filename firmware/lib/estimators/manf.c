@@ -98,7 +98,7 @@ static uint8_t step_q(manf_state_t *st, const uint8_t *in, uint8_t *out)
     } else {
         int32_t e = fx_sub(s->v, v_w, &status); /* Q24 */
         uint8_t grow;
-        st->s_prev = adapt_sign(st->s_prev, (int8_t)((e > 0) - (e < 0)), &grow);
+        st->s_prev = adapt_sign(st->s_prev, e < 0 ? -1 : (int8_t)(e != 0), &grow);
         if (grow == 2u) {
             s->rg = fx_mul(s->rg, 24, p->gamma, 30, 24, &status);
         } else if (grow == 1u) {
