@@ -152,10 +152,18 @@ static uint8_t step_q(acc_kf_state_t *st, const uint8_t *in, uint8_t *out)
                              &status);
         int32_t m12 = fx_sub(s->p12, t_p22, &status);
         int32_t m22 = fx_add(s->p22, p->q_b, &status);
-        int32_t c = (braking && st->corr2) ? fx_sub(ONE_Q30, s->slip, &status) : ONE_Q30;
-        int32_t cm11 = fx_mul(c, 30, m11, 28, 28, &status);
-        int32_t cm12 = fx_mul(c, 30, m12, 28, 28, &status);
-        int32_t S = fx_add(fx_mul(c, 30, cm11, 28, 24, &status), p->R, &status); /* Q24 */
+        /* c = 1 - slip (eq. 8); c = 1, every step without the correction, multiplies
+         * exactly, so those steps skip its four products and keep the same bits. */
+        int32_t cm11 = m11, cm12 = m12, c_v_pred = v_pred;
+        int32_t c2m11 = fx_rescale(m11, 28, 24, &status); /* Q24 */
+        if (braking && st->corr2 && s->slip != 0) {
+            int32_t c = fx_sub(ONE_Q30, s->slip, &status); /* slip in (0, S_MAX] */
+            cm11 = fx_mul(c, 30, m11, 28, 28, &status);
+            cm12 = fx_mul(c, 30, m12, 28, 28, &status);
+            c2m11 = fx_mul(c, 30, cm11, 28, 24, &status);
+            c_v_pred = fx_mul(c, 30, v_pred, 20, 20, &status);
+        }
+        int32_t S = fx_add(c2m11, p->R, &status); /* Q24 */
         int32_t k1 = 0, k2 = 0; /* no update if S is not positive (it is R > 0 or more) */
         if (S > 0) {
             fx_recip_t inv_s = fx_recip(S);
@@ -164,7 +172,7 @@ static uint8_t step_q(acc_kf_state_t *st, const uint8_t *in, uint8_t *out)
         } else {
             status |= STATUS_SINGULAR;
         }
-        int32_t e = fx_sub(v_m, fx_mul(c, 30, v_pred, 20, 20, &status), &status); /* Q20 */
+        int32_t e = fx_sub(v_m, c_v_pred, &status); /* Q20 */
         s->v = fx_add(v_pred, fx_mul(k1, 30, e, 20, 20, &status), &status);
         s->a0 = fx_add(b_pred, fx_mul(k2, 30, e, 20, 24, &status), &status);
         s->p11 = fx_sub(m11, fx_mul(k1, 30, cm11, 28, 28, &status), &status);
