@@ -64,14 +64,24 @@ void longit_reset(longit_t *l) { l->started = 0; }
 
 uint8_t longit_bit_length(uint32_t x)
 {
-    uint8_t n = 0;
-    while (x >> 8 != 0u) { /* whole bytes first: the AVR shifts a bit at a time */
-        x >>= 8;
-        n += 8;
+    /* Whole words and bytes by moves, then the top byte one bit at a time as a byte: the
+     * AVR shifts an int32 a bit at a time. */
+    uint8_t n = 32;
+    if (x >> 16 == 0u) {
+        x <<= 16;
+        n = 16;
     }
-    while (x != 0u) {
-        x >>= 1;
-        n++;
+    if (x >> 24 == 0u) {
+        x <<= 8;
+        n = (uint8_t)(n - 8u);
+    }
+    uint8_t top = (uint8_t)(x >> 24);
+    if (top == 0u) {
+        return 0;
+    }
+    while (top < 0x80u) {
+        top = (uint8_t)(top << 1);
+        n--;
     }
     return n;
 }

@@ -23,13 +23,26 @@ static const uint8_t at[3][3] = {{0, 1, 3}, {1, 2, 4}, {3, 4, 5}};
 
 static uint32_t magnitude(int32_t x) { return x < 0 ? (uint32_t)0 - (uint32_t)x : (uint32_t)x; }
 
-/* v >> d (arithmetic), whole bytes first: the AVR shifts an int32 one bit at a time. */
+/* v >> d (arithmetic) and u << d: whole bytes, then 4, 2 and 1 bits, each a shift known at
+ * compile time (the AVR loops a bit at a time on a shift known only at run time). */
 static int32_t sar(int32_t v, uint8_t d)
 {
     for (; d >= 8u; d -= 8u) {
         v >>= 8;
     }
-    return v >> d;
+    v = d & 4u ? v >> 4 : v;
+    v = d & 2u ? v >> 2 : v;
+    return d & 1u ? v >> 1 : v;
+}
+
+static uint32_t shl(uint32_t u, uint8_t d)
+{
+    for (; d >= 8u; d -= 8u) {
+        u <<= 8;
+    }
+    u = d & 4u ? u << 4 : u;
+    u = d & 2u ? u << 2 : u;
+    return d & 1u ? u << 1 : u;
 }
 
 /* v 2^n: rounded half up when n < 0, saturated (flagged) when it does not fit. */
@@ -43,11 +56,7 @@ static int32_t shift(int32_t v, int16_t n, uint8_t *st)
             }
             return 0;
         }
-        uint32_t u = (uint32_t)v;
-        for (; n >= 8; n -= 8) {
-            u <<= 8;
-        }
-        return (int32_t)(u << n);
+        return (int32_t)shl((uint32_t)v, (uint8_t)n);
     }
     if (n < -31) {
         return 0;
@@ -88,7 +97,7 @@ static const ROM ROM_TABLE(int32_t, 17) recip_table = {{
 static int32_t reciprocal(int32_t s, uint8_t *st)
 {
     uint32_t x = (uint32_t)s - ((uint32_t)1 << 29);
-    uint8_t i = (uint8_t)(x >> 25);
+    uint8_t i = (uint8_t)((uint8_t)(x >> 24) >> 1); /* x >> 25: a byte move, not 25 bit shifts */
     int32_t y0 = rom_i32(ROM_AT(recip_table, i)), y1 = rom_i32(ROM_AT(recip_table, i + 1u));
     int32_t y = y0 + fx_mul_shr(y1 - y0,
                                             (int32_t)(x & (((uint32_t)1 << 25) - 1u)), 25, st);
