@@ -148,7 +148,7 @@ static uint8_t step_q(acc_kf_state_t *st, const uint8_t *in, uint8_t *out)
         int32_t t_p12 = fx_mul(T, 30, s->p12, 28, 28, &status);
         int32_t t_p22 = fx_mul(T, 30, s->p22, 30, 28, &status);
         int32_t m11 = fx_add(fx_sub(s->p11, fx_add(t_p12, t_p12, &status), &status),
-                             fx_add(fx_mul(T, 30, t_p22, 28, 28, &status), p->q_v, &status),
+                             fx_add(fx_mul(p->T2, 30, s->p22, 30, 28, &status), p->q_v, &status),
                              &status);
         int32_t m12 = fx_sub(s->p12, t_p22, &status);
         int32_t m22 = fx_add(s->p22, p->q_b, &status);
@@ -243,6 +243,7 @@ static uint8_t acc_kf_configure(void *state, uint8_t mode, const uint8_t *params
         acc_kf_params_q_t *p = &st->u.q.p;
         uint8_t sat = 0;
         p->T = param_q(params, P_T);
+        p->T2 = fx_mul(p->T, 30, p->T, 30, 30, &sat); /* T² P22: one product a step, not two */
         p->r_w_half = param_q(params, P_RW) / 2; /* Q24; the radius is positive */
         p->q_v = fx_rescale(param_q(params, P_QV), 30, 28, &sat);
         p->q_b = param_q(params, P_QB);

@@ -32,6 +32,7 @@ typedef struct {
 /* Fixed point: the Q format of each member is in its comment. */
 typedef struct {
     int32_t T;            /* Q30 */
+    int32_t T2;           /* Q30 */
     int32_t r_w_half;     /* Q24 */
     int32_t q_v;          /* Q28 */
     int32_t q_b;          /* Q30 */
