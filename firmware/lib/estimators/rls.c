@@ -45,17 +45,11 @@ static uint32_t shl(uint32_t u, uint8_t d)
     return d & 1u ? u << 1 : u;
 }
 
-/* v 2^n: rounded half up when n < 0, saturated (flagged) when it does not fit. */
-static int32_t shift(int32_t v, int16_t n, uint8_t *st)
+/* v 2^n, rounded half up when n < 0, for a v 2^n that fits an int32 (a shift that
+ * normalises v: no overflow test). */
+static int32_t scale(int32_t v, int16_t n)
 {
     if (n >= 0) {
-        if (n > 30 || sar(v, (uint8_t)(31 - n)) != (v < 0 ? -1 : 0)) {
-            if (v != 0) {
-                *st |= STATUS_SATURATED;
-                return v > 0 ? INT32_MAX : INT32_MIN;
-            }
-            return 0;
-        }
         return (int32_t)shl((uint32_t)v, (uint8_t)n);
     }
     if (n < -31) {
@@ -63,6 +57,19 @@ static int32_t shift(int32_t v, int16_t n, uint8_t *st)
     }
     v = sar(v, (uint8_t)(-n - 1)); /* to the rounding bit, then one more */
     return (v >> 1) + (v & 1);
+}
+
+/* v 2^n: rounded half up when n < 0, saturated (flagged) when it does not fit. */
+static int32_t shift(int32_t v, int16_t n, uint8_t *st)
+{
+    if (n >= 0 && (n > 30 || sar(v, (uint8_t)(31 - n)) != (v < 0 ? -1 : 0))) {
+        if (v != 0) {
+            *st |= STATUS_SATURATED;
+            return v > 0 ? INT32_MAX : INT32_MIN;
+        }
+        return 0;
+    }
+    return scale(v, n);
 }
 
 /* a b 2^-n for a shift n known only at run time, rounded half up, saturated: on the AVR
@@ -111,7 +118,7 @@ static int32_t reciprocal(int32_t s, uint8_t *st)
 static int32_t ratio_q30(int32_t m_sin, int32_t m, uint8_t *st)
 {
     uint8_t n = longit_bit_length((uint32_t)m);
-    int32_t r = reciprocal(shift(m, (int16_t)(30 - n), st), st);
+    int32_t r = reciprocal(scale(m, (int16_t)(30 - n)), st);
     return mul_shr(m_sin, r, (int16_t)(n - 1), st);
 }
 
@@ -302,7 +309,7 @@ static void update_q(rls_state_t *s, const int32_t *x, uint8_t *status)
     }
     int32_t u[3], w[3], t[3];
     for (uint8_t j = 0; j < 3u; j++) {
-        u[j] = shift(psi[j], (int16_t)(30 - psi_q[j] + e[j] - top), &st);
+        u[j] = scale(psi[j], (int16_t)(30 - psi_q[j] + e[j] - top)); /* |ψ_j| 2^e_j <= 2^top */
     }
     uint32_t peak = 0;
     for (uint8_t i = 0; i < 3u; i++) {
@@ -318,7 +325,7 @@ static void update_q(rls_state_t *s, const int32_t *x, uint8_t *status)
     int16_t gw = (int16_t)(n_w - 29);
     int32_t q = 0; /* ũᵀŵ, Q27: <= 3 */
     for (uint8_t i = 0; i < 3u; i++) {
-        w[i] = shift(w[i], (int16_t)(30 - n_w), &st);
+        w[i] = scale(w[i], (int16_t)(30 - n_w));
         q += fx_mul_shr(u[i], w[i], 33, &st);
     }
     q = q > 0 ? q : 0;
@@ -341,7 +348,7 @@ static void update_q(rls_state_t *s, const int32_t *x, uint8_t *status)
      * [1/2, 1) (Q30): one multiply, its shift from the exponents. */
     if (err != 0) {
         uint8_t n_err = longit_bit_length(magnitude(err));
-        int32_t err_m = shift(err, (int16_t)(30 - n_err), &st);
+        int32_t err_m = scale(err, (int16_t)(30 - n_err));
         for (uint8_t i = 0; i < 3u; i++) {
             int16_t n = (int16_t)(57 - theta_q[i] - e[i] + top + g - gw - n_err + ERR_Q);
             theta[i] = fx_add(theta[i], mul_shr(t[i], err_m, n, &st), &st);
