@@ -23,7 +23,7 @@ static biquad_f32_t butter2_lp(float fc, float T)
     float k = tan_cf(PI_F * fc * T);
     float norm = 1.0f / (1.0f + SQRT2_F * k + k * k);
     float b0 = k * k * norm;
-    return (biquad_f32_t){b0, 2.0f * b0, b0, 2.0f * (k * k - 1.0f) * norm,
+    return (biquad_f32_t){b0, 2.0f * b0, 2.0f * (k * k - 1.0f) * norm,
                           (1.0f - SQRT2_F * k + k * k) * norm};
 }
 
@@ -53,8 +53,7 @@ void accel_cond_design_f32(accel_cond_f32_t *c, const uint8_t *params, uint8_t f
 
 static biquad_q_t biquad_to_q(const biquad_f32_t *b, uint8_t *status)
 {
-    return (biquad_q_t){fx_from_float(b->b0, 29, status), fx_from_float(b->b1, 29, status),
-                        fx_from_float(b->b2, 29, status), fx_from_float(b->a1, 29, status),
+    return (biquad_q_t){fx_from_float(b->b0, 29, status), fx_from_float(b->a1, 29, status),
                         fx_from_float(b->a2, 29, status)};
 }
 
@@ -69,7 +68,7 @@ void accel_cond_q_from_f32(accel_cond_q_t *q, const accel_cond_f32_t *c, uint8_t
 
 static float biquad_f32(const biquad_f32_t *b, float x, float x1, float x2, float y1, float y2)
 {
-    return b->b0 * x + b->b1 * x1 + b->b2 * x2 - b->a1 * y1 - b->a2 * y2;
+    return b->b0 * x + b->b1 * x1 + b->b0 * x2 - b->a1 * y1 - b->a2 * y2;
 }
 
 float accel_cond_step_f32(const accel_cond_f32_t *c, accel_chan_f32_t *ch, float a)
@@ -88,13 +87,14 @@ float accel_cond_step_f32(const accel_cond_f32_t *c, accel_chan_f32_t *ch, float
     return ch->x;
 }
 
-/* Direct form I, input in qx, output Q20, each product rounded into Q20. */
-static int32_t biquad_q(const biquad_q_t *b, int32_t x, int32_t x1, int32_t x2, uint8_t qx,
-                        int32_t y1, int32_t y2, uint8_t *s)
+/* Direct form I, input ACCEL_QH, output Q20, each product rounded into Q20. x + 2 x1 + x2
+ * reaches 4 times the input's range: it is summed two bits coarser (Q19, ±4,096 m/s²), in
+ * int32 without overflow; b0 < 1 scales that rounding down. */
+static int32_t biquad_q(const biquad_q_t *b, int32_t x, int32_t x1, int32_t x2, int32_t y1,
+                        int32_t y2, uint8_t *s)
 {
-    int32_t y = fx_mul(b->b0, 29, x, qx, 20, s);
-    y = fx_add(y, fx_mul(b->b1, 29, x1, qx, 20, s), s);
-    y = fx_add(y, fx_mul(b->b2, 29, x2, qx, 20, s), s);
+    int32_t sum = (x >> 2) + (x1 >> 1) + (x2 >> 2);
+    int32_t y = fx_mul(b->b0, 29, sum, ACCEL_QH - 2, 20, s);
     y = fx_sub(y, fx_mul(b->a1, 29, y1, 20, 20, s), s);
     return fx_sub(y, fx_mul(b->a2, 29, y2, 20, 20, s), s);
 }
@@ -109,7 +109,7 @@ int32_t accel_cond_step_q(const accel_cond_q_t *c, accel_chan_q_t *ch, int32_t a
     dh = fx_add(dh, fx_mul(hp->g, 30, d2, 20, ACCEL_QH, status), status);
     ch->dh = fx_sub(dh, fx_mul(hp->c12, 30, ch->h1, ACCEL_QH, ACCEL_QH, status), status);
     int32_t h = fx_add(ch->h1, ch->dh, status);
-    int32_t l = biquad_q(&c->lp, h, ch->h1, ch->h2, ACCEL_QH, ch->l1, ch->l2, status);
+    int32_t l = biquad_q(&c->lp, h, ch->h1, ch->h2, ch->l1, ch->l2, status);
     int32_t dv = fx_mul(c->half_T, 30, fx_add(l, ch->l1, status), 20, 24, status);
     int32_t v = fx_mul(c->alpha, 30, fx_add(ch->v, dv, status), 24, 24, status);
     int32_t dx = fx_mul(c->half_T, 30, fx_add(v, ch->v, status), 24, 28, status);

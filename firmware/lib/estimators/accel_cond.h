@@ -23,12 +23,14 @@
 #define ACCEL_COND_N_PARAMS 3u
 #define ACCEL_QH 21 /* Q format of the high-passed acceleration */
 
+/* The Butterworth low-pass: numerator b0 (1, 2, 1), so b0 (x + 2 x1 + x2) is one product in
+ * fixed point; float32 keeps b1 = 2 b0 (exact) and its three products' rounding. */
 typedef struct {
-    float b0, b1, b2, a1, a2;
+    float b0, b1, a1, a2;
 } biquad_f32_t;
 
 typedef struct {
-    int32_t b0, b1, b2, a1, a2; /* Q29 */
+    int32_t b0, a1, a2; /* Q29 */
 } biquad_q_t;
 
 typedef struct {

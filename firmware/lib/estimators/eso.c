@@ -72,20 +72,22 @@ static uint8_t step_q(eso_state_t *st, const uint8_t *in, uint8_t *out)
     uint8_t status = 0;
     int32_t y_s = accel_cond_step_q(&s->ecu.cond, &s->ecu.ch[0], get_i32(in), &status);
     int32_t y_us = accel_cond_step_q(&s->ecu.cond, &s->ecu.ch[1], get_i32(in + 4), &status);
-    int32_t du = fx_sub(s->ecu.u, s->fnl, &status); /* u - f_nl, N Q16 */
-    observer_q(s, z, y_s, fx_add(z[2], fx_mul(du, 16, m->inv_m_s, 36, 20, &status), &status),
-               &status);
-    observer_q(s, z + 3, y_us,
-               fx_sub(z[5], fx_mul(du, 16, m->inv_m_us, 36, 20, &status), &status), &status);
+    int32_t acc_s = z[2], acc_us = z[5];
+    if (s->ecu.ctrl.active || st->variant) { /* else u - f_nl stays 0 */
+        int32_t du = fx_sub(s->ecu.u, s->fnl, &status); /* N Q16 */
+        acc_s = fx_add(acc_s, fx_mul(du, 16, m->inv_m_s, 36, 20, &status), &status);
+        acc_us = fx_sub(acc_us, fx_mul(du, 16, m->inv_m_us, 36, 20, &status), &status);
+    }
+    observer_q(s, z, y_s, acc_s, &status);
+    observer_q(s, z + 3, y_us, acc_us, &status);
     int32_t dx = fx_sub(z[0], z[3], &status), dv = fx_sub(z[1], z[4], &status);
     int32_t fnl = qcar_strut_q(m, dx, dv, 1, &status);
     s->fnl = st->variant ? fnl : 0;
-    susp_est_q_t est = {
-        z[0], z[1], z[3], z[4],
-        fx_sub(z[2], fx_mul(s->fnl, 16, m->inv_m_s, 36, 20, &status), &status),
-        fx_add(z[5], fx_mul(s->fnl, 16, m->inv_m_us, 36, 20, &status), &status),
-        0,
-    };
+    susp_est_q_t est = {z[0], z[1], z[3], z[4], z[2], z[5], 0};
+    if (st->variant) { /* variant B: the model's share leaves the lumped disturbances */
+        est.F1 = fx_sub(z[2], fx_mul(s->fnl, 16, m->inv_m_s, 36, 20, &status), &status);
+        est.F2 = fx_add(z[5], fx_mul(s->fnl, 16, m->inv_m_us, 36, 20, &status), &status);
+    }
     int32_t strut = fx_add(fnl, fx_add(fx_mul(m->k1, 8, dx, 28, 16, &status),
                                        fx_mul(m->c1, 16, dv, 24, 16, &status), &status),
                            &status);
