@@ -311,14 +311,14 @@ static void update_q(rls_state_t *s, const int32_t *x, uint8_t *status)
     for (uint8_t j = 0; j < 3u; j++) {
         u[j] = scale(psi[j], (int16_t)(30 - psi_q[j] + e[j] - top)); /* |ψ_j| 2^e_j <= 2^top */
     }
-    uint32_t peak = 0;
-    for (uint8_t i = 0; i < 3u; i++) {
-        w[i] = 0; /* Q29: |P̃_ij| < 1, |ũ_j| < 1 */
-        for (uint8_t j = 0; j < 3u; j++) {
-            w[i] += fx_mul_shr(P[at[i][j]], u[j], 31, &st);
-        }
-        peak |= magnitude(w[i]);
-    }
+    /* w̃ = P̃ ũ, Q29 (|P̃_ij| < 1, |ũ_j| < 1), written out: the AVR pays for at[][] lookups. */
+    w[0] = fx_mul_shr(P[0], u[0], 31, &st) + fx_mul_shr(P[1], u[1], 31, &st) +
+           fx_mul_shr(P[3], u[2], 31, &st);
+    w[1] = fx_mul_shr(P[1], u[0], 31, &st) + fx_mul_shr(P[2], u[1], 31, &st) +
+           fx_mul_shr(P[4], u[2], 31, &st);
+    w[2] = fx_mul_shr(P[3], u[0], 31, &st) + fx_mul_shr(P[4], u[1], 31, &st) +
+           fx_mul_shr(P[5], u[2], 31, &st);
+    uint32_t peak = magnitude(w[0]) | magnitude(w[1]) | magnitude(w[2]);
     /* w̃ = ŵ 2^gw, ŵ Q30 with its largest entry in [1/2, 1): once the estimate has
      * converged ψ points where P is small, and w̃ and its square terms below are tiny. */
     uint8_t n_w = longit_bit_length(peak);
@@ -356,9 +356,10 @@ static void update_q(rls_state_t *s, const int32_t *x, uint8_t *status)
     }
     /* P̃ - w̃ w̃ᵀ / s = P̃ - t ŵᵀ 2^(2 gw - g), whose entries are at most sqrt(P̃_ii P̃_jj) < 1. */
     int16_t n_p = (int16_t)(27 - 2 * gw + g);
+    int32_t *p = P; /* the lower triangle row by row is P's packed order */
     for (uint8_t i = 0; i < 3u; i++) {
-        for (uint8_t j = 0; j <= i; j++) {
-            P[at[i][j]] = fx_sub(P[at[i][j]], mul_shr(t[i], w[j], n_p, &st), &st);
+        for (uint8_t j = 0; j <= i; j++, p++) {
+            *p = fx_sub(*p, mul_shr(t[i], w[j], n_p, &st), &st);
         }
     }
     uint8_t forget = renormalise(P, e, &st);
