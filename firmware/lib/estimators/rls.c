@@ -262,8 +262,11 @@ static uint8_t renormalise(int32_t *P, int8_t *e, uint8_t *st)
         if (*d <= 0) {
             return 0;
         }
-        while (*d < (ONE_Q30 >> 2) || *d >= ONE_Q30) {
-            int8_t k = *d < (ONE_Q30 >> 2) ? 1 : -1; /* P̃_ii 4^k, e_i - k */
+        /* P̃_ii 4^k, e_i - k: up by k = (30 - its bit length) / 2 at once (exact, and a
+         * row that saturates saturates the same as step by step), or down by one. */
+        if (*d < (ONE_Q30 >> 2) || *d >= ONE_Q30) {
+            int8_t k =
+                *d >= ONE_Q30 ? -1 : (int8_t)((30u - longit_bit_length((uint32_t)*d)) / 2u);
             for (uint8_t j = 0; j < 3u; j++) {
                 int32_t *p = &P[at[i][j]];
                 *p = shift(*p, (int16_t)(j == i ? 2 * k : k), st);
