@@ -17,6 +17,10 @@ import pytest
 from vehil.build import build
 from vehil.paths import BUILD_DIR
 
+# pytest-xdist's workers start with COLUMNS=80 in their environment, which would fold
+# vehil's output at 80 columns where a CI log gets it at full width (vehil.terminal).
+os.environ.pop("COLUMNS", None)
+
 
 @pytest.fixture(scope="session", autouse=True)
 def _runs_in_a_temporary_folder(tmp_path_factory: pytest.TempPathFactory) -> None:

@@ -61,7 +61,7 @@ class QemuBoard(Board):
             ],
             "qemu",
         )
-        return f"socket://127.0.0.1:{port}"
+        return f"tcp://127.0.0.1:{port}"  # keeps the boot INFO: see transports/protocol_tcp.py
 
     def open_port(self, url: str) -> serial.SerialBase:
         """QEMU listens a moment after it starts: retry until it does, or dies."""

@@ -1,4 +1,5 @@
-"""pyserial URL handlers of vehil's own (`native://`), registered on import.
+"""pyserial URL handlers of vehil's own (`native://`, `faults://`, `mega16u2://`, `tcp://`),
+registered on import.
 
 pyserial looks a URL's scheme up as `<package>.protocol_<scheme>` in
 `serial.protocol_handler_packages`; adding this package there makes

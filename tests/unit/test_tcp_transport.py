@@ -1,0 +1,58 @@
+"""tcp:// keeps what a board sends while the port opens (QEMU's boot INFO); socket://,
+which it is built on, throws that away."""
+
+from __future__ import annotations
+
+import socket
+import threading
+import time
+
+import pytest
+import serial
+from serial.urlhandler import protocol_socket
+
+import vehil.transports  # noqa: F401  (registers tcp://)
+
+BOOT = b"\x03ab\x00"
+
+
+@pytest.fixture
+def talking_peer(monkeypatch: pytest.MonkeyPatch):  # noqa: ANN201
+    """A peer that sends BOOT the moment it accepts, and a connect that returns only once
+    those bytes have arrived: the race a loaded host loses, made certain."""
+    server = socket.create_server(("127.0.0.1", 0))
+
+    def serve() -> None:
+        conn, _ = server.accept()
+        conn.sendall(BOOT)
+        time.sleep(2.0)  # open past the reads below
+        conn.close()
+
+    threading.Thread(target=serve, daemon=True).start()
+    connect = socket.create_connection
+
+    def connect_then_wait(*args, **kwargs):  # noqa: ANN002, ANN003, ANN202
+        s = connect(*args, **kwargs)
+        time.sleep(0.2)
+        return s
+
+    monkeypatch.setattr(protocol_socket.socket, "create_connection", connect_then_wait)
+    yield server.getsockname()[1]
+    server.close()
+
+
+def test_tcp_keeps_the_bytes_that_arrive_while_it_opens(talking_peer: int) -> None:
+    with serial.serial_for_url(f"tcp://127.0.0.1:{talking_peer}", timeout=0.5) as port:
+        assert port.read(len(BOOT)) == BOOT
+
+
+def test_socket_loses_them_which_is_why_qemu_uses_tcp(talking_peer: int) -> None:
+    with serial.serial_for_url(f"socket://127.0.0.1:{talking_peer}", timeout=0.3) as port:
+        assert port.read(len(BOOT)) == b""
+
+
+def test_tcp_refuses_another_scheme() -> None:
+    from vehil.transports.protocol_tcp import Serial
+
+    with pytest.raises(serial.SerialException, match="tcp://HOST:PORT"):
+        Serial().from_url("socket://127.0.0.1:1")
