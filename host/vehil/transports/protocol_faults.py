@@ -20,11 +20,11 @@ import time
 import urllib.parse
 from collections import Counter
 
-import serial
-from serial.serialutil import PortNotOpenError, SerialBase, SerialException
+from serial.serialutil import SerialException
 
 from vehil.protocol import frame
 from vehil.protocol.schema import SCHEMA
+from vehil.transports.wrapping import WrappingSerial
 
 KINDS = ("drop", "flip", "dup", "insert")
 _OPTIONS = ("delay_ms", "reboot_after", "seed")
@@ -85,43 +85,32 @@ class ByteFaults:
         return bytes(out)
 
 
-class Serial(SerialBase):
+class Serial(WrappingSerial):
     """A serial port that passes bytes through another one, breaking some of them."""
 
-    _inner: serial.SerialBase | None = None
+    scheme = "faults"
 
     def open(self) -> None:
-        if self.is_open:  # type: ignore[has-type]
-            raise SerialException("port already open")
-        text = str(self.portstr)
-        if not text.startswith("faults://"):
-            raise SerialException(f"expected a faults:// URL, got {text!r}")
-        inner, _, query = text[len("faults://") :].rpartition("?")
+        inner, _, query = self._inner_url().rpartition("?")
         if not inner:
             inner, query = query, ""
         try:
             self.rates = parse_spec(query)
         except ValueError as exc:
-            raise SerialException(f"{text}: {exc}") from None
+            raise SerialException(f"{self.portstr}: {exc}") from None
         self.faults = ByteFaults(self.rates, int(self.rates.get("seed", 0)))
         self.counts = self.faults.counts
         self.armed = False
         self._writes = 0
-        self._inner = serial.serial_for_url(inner, baudrate=self._baudrate, timeout=self._timeout)
+        self._open_inner(inner, self._timeout)
         self.is_open = True
 
     def arm(self) -> None:
         self.armed = True
 
-    def close(self) -> None:
-        if self._inner is not None:
-            self._inner.close()
-            self._inner = None
-        self.is_open = False
-
     def _reconfigure_port(self) -> None:
+        super()._reconfigure_port()
         if self._inner is not None:
-            self._inner.baudrate = self._baudrate
             self._inner.timeout = self._timeout
 
     def _break(self, data: bytes, direction: str) -> bytes:
@@ -129,32 +118,19 @@ class Serial(SerialBase):
 
     @property
     def in_waiting(self) -> int:
-        if self._inner is None:
-            raise PortNotOpenError()
-        return int(self._inner.in_waiting)
+        return int(self.inner.in_waiting)
 
     def read(self, size: int = 1) -> bytes:
-        if self._inner is None:
-            raise PortNotOpenError()
-        return self._break(self._inner.read(size), "from board")
+        return self._break(self.inner.read(size), "from board")
 
     def write(self, data: bytes) -> int:
-        if self._inner is None:
-            raise PortNotOpenError()
+        inner = self.inner
         if self.armed and self.rates.get("delay_ms"):
             time.sleep(self.rates["delay_ms"] / 1e3)
-        self._inner.write(self._break(bytes(data), "to board"))
+        inner.write(self._break(bytes(data), "to board"))
         if self.armed and "reboot_after" in self.rates:
             self._writes += 1
             if self._writes == int(self.rates["reboot_after"]):
-                self._inner.write(_REBOOT)
+                inner.write(_REBOOT)
                 self.counts["reboot"] += 1
         return len(data)
-
-    def reset_input_buffer(self) -> None:
-        if self._inner is not None:
-            self._inner.reset_input_buffer()
-
-    def reset_output_buffer(self) -> None:
-        if self._inner is not None:
-            self._inner.reset_output_buffer()

@@ -25,28 +25,22 @@ import threading
 import time
 from collections import deque
 
-import serial
-from serial.serialutil import PortNotOpenError, SerialBase, SerialException
+from serial.serialutil import SerialException
+
+from vehil.transports.wrapping import WrappingSerial
 
 FLUSH_PERIOD_S = 256 * 256 / 16e6  # Timer0 overflow, prescaler 256: 4.096 ms
 NEAR_FULL = 96  # more than this many bytes waiting: sent at once
 PACKET = 64  # full-speed bulk endpoint size
 
 
-class Serial(SerialBase):
+class Serial(WrappingSerial):
     """A serial port whose board->host bytes are held and released like the 16U2's."""
 
-    _inner: serial.SerialBase | None = None
+    scheme = "mega16u2"
 
     def open(self) -> None:
-        if self.is_open:  # type: ignore[has-type]
-            raise SerialException("port already open")
-        text = str(self.portstr)
-        if not text.startswith("mega16u2://"):
-            raise SerialException(f"expected a mega16u2:// URL, got {text!r}")
-        self._inner = serial.serial_for_url(
-            text[len("mega16u2://") :], baudrate=self._baudrate, timeout=0.0005
-        )
+        self._open_inner(self._inner_url(), timeout=0.0005)
         self._waiting = bytearray()  # in the 16U2's USART buffer
         self._packets: deque[bytes] = deque()  # released to the host
         self.packets_sent = 0
@@ -86,25 +80,16 @@ class Serial(SerialBase):
         self._running = False
         if getattr(self, "_pump", None) is not None and self._pump.is_alive():
             self._pump.join(timeout=1.0)
-        if self._inner is not None:
-            self._inner.close()
-            self._inner = None
-        self.is_open = False
-
-    def _reconfigure_port(self) -> None:
-        if self._inner is not None:
-            self._inner.baudrate = self._baudrate
+        super().close()
 
     @property
     def in_waiting(self) -> int:
-        if self._inner is None:
-            raise PortNotOpenError()
+        self.inner  # noqa: B018  (raises if the port is closed)
         with self._ready:
             return sum(len(p) for p in self._packets)
 
     def read(self, size: int = 1) -> bytes:
-        if self._inner is None:
-            raise PortNotOpenError()
+        self.inner  # noqa: B018  (raises if the port is closed)
         deadline = None if self._timeout is None else time.perf_counter() + self._timeout
         out = bytearray()
         with self._ready:
@@ -127,16 +112,9 @@ class Serial(SerialBase):
         return bytes(out)
 
     def write(self, data: bytes) -> int:
-        if self._inner is None:
-            raise PortNotOpenError()
-        return int(self._inner.write(data))
+        return int(self.inner.write(data))
 
     def reset_input_buffer(self) -> None:
         with self._ready:
             self._packets.clear()
-        if self._inner is not None:
-            self._inner.reset_input_buffer()
-
-    def reset_output_buffer(self) -> None:
-        if self._inner is not None:
-            self._inner.reset_output_buffer()
+        super().reset_input_buffer()
