@@ -118,13 +118,13 @@ class Serial(WrappingSerial):
 
     @property
     def in_waiting(self) -> int:
-        return int(self.inner.in_waiting)
+        return int(self._require_open().in_waiting)
 
     def read(self, size: int = 1) -> bytes:
-        return self._break(self.inner.read(size), "from board")
+        return self._break(self._require_open().read(size), "from board")
 
     def write(self, data: bytes) -> int:
-        inner = self.inner
+        inner = self._require_open()
         if self.armed and self.rates.get("delay_ms"):
             time.sleep(self.rates["delay_ms"] / 1e3)
         inner.write(self._break(bytes(data), "to board"))

@@ -84,12 +84,12 @@ class Serial(WrappingSerial):
 
     @property
     def in_waiting(self) -> int:
-        self.inner  # noqa: B018  (raises if the port is closed)
+        self._require_open()
         with self._ready:
             return sum(len(p) for p in self._packets)
 
     def read(self, size: int = 1) -> bytes:
-        self.inner  # noqa: B018  (raises if the port is closed)
+        self._require_open()
         deadline = None if self._timeout is None else time.perf_counter() + self._timeout
         out = bytearray()
         with self._ready:
@@ -112,7 +112,7 @@ class Serial(WrappingSerial):
         return bytes(out)
 
     def write(self, data: bytes) -> int:
-        return int(self.inner.write(data))
+        return int(self._require_open().write(data))
 
     def reset_input_buffer(self) -> None:
         with self._ready:

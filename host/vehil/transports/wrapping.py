@@ -25,8 +25,8 @@ class WrappingSerial(SerialBase):
     def _open_inner(self, url: str, timeout: float | None) -> None:
         self._inner = serial.serial_for_url(url, baudrate=self._baudrate, timeout=timeout)
 
-    @property
-    def inner(self) -> serial.SerialBase:
+    def _require_open(self) -> serial.SerialBase:
+        """The inner port; PortNotOpenError if this one is closed."""
         if self._inner is None:
             raise PortNotOpenError()
         return self._inner
