@@ -31,3 +31,25 @@ def test_the_four_variants_run_on_the_board_as_on_the_host(run_scenario) -> None
         params = sc.params | {"corr1": float(corr1), "corr2": float(corr2)}
         result = run_scenario(dataclasses.replace(sc, params=params), board="native", duration=20.0)
         assert result.figures.outputs["v"].reference.max_abs < 1e-4
+
+
+@pytest.mark.parametrize(("name", "limit"), [("mixed", 5e-5), ("mixed-fixed", 2e-4)])
+def test_at_1_ms_only_the_sample_time_changes_and_the_c_derives_the_same_step(
+    run_scenario,  # noqa: ANN001
+    name: str,
+    limit: float,
+) -> None:
+    sc = scenario.load(name)
+    fast = dataclasses.replace(sc, sample_time=0.001, params=sc.params | {"T": 0.001})
+    result = run_scenario(fast, board="native", duration=20.0)
+    result.assert_passed()
+    assert result.figures.outputs["v"].reference.max_abs < limit
+
+
+def test_a_low_pass_cutoff_too_high_for_the_sample_time_is_refused(built) -> None:  # noqa: ANN001
+    values = acc_kf.spec_defaults() | {"T": 0.01, "lpf_hz": 45.0}
+    with pytest.raises(ValueError, match="lpf_hz = 45 Hz is above"):
+        acc_kf.AccKF(values)
+    with open_board("native") as link, pytest.raises(BoardError, match="BAD_PARAM") as exc:
+        link.configure("acc_kf", "FIXED", acc_kf.SPEC.encode_params(values, "FIXED"))
+    assert exc.value.detail == [p.name for p in acc_kf.SPEC.params].index("lpf_hz")

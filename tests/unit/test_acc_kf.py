@@ -9,8 +9,8 @@ from vehil.estimators import acc_kf
 INPUTS = ("a_m", "omega_l", "omega_r", "brake")
 
 
-def drive(profile: int, duration: float, seed: int, **params: float):  # noqa: ANN201
-    trace = plants.get("acc_drive").run({"profile": profile, **params}, duration, 0.01, seed)
+def drive(profile: int, duration: float, seed: int, T: float = 0.01, **params: float):  # noqa: ANN201
+    trace = plants.get("acc_drive").run({"profile": profile, **params}, duration, T, seed)
     return trace, np.column_stack([trace.signals[n] for n in INPUTS])
 
 
@@ -66,3 +66,33 @@ def test_braking_to_standstill_stays_finite() -> None:
     est = acc_kf.run(acc_kf.spec_defaults(), u)
     assert np.all(np.isfinite(est))
     assert abs(est[-1, 0]) < 0.2
+
+
+def test_the_step_follows_the_sample_time_from_physical_parameters() -> None:
+    # At 1 ms the per-step noise and the low-pass are derived from the same densities and
+    # cutoff; the 10 ms numbers kept at 1 ms (what per-step parameters gave) are a filter
+    # ten times as noisy with a ten-times-higher cutoff.
+    trace, u = drive(2, 13.0, 0, T=0.001)
+    p = acc_kf.spec_defaults() | {"T": 0.001}
+    step = acc_kf.per_step(p)
+    assert (step.q_v, step.q_b) == pytest.approx((1e-6, 1e-7))
+    assert sum(step.b) / (1 - sum(step.c)) == pytest.approx(1.0)  # unity DC gain
+    kept = p | {"n_v": 1e-2, "n_b": 1e-3, "lpf_hz": 20.0}
+    assert acc_kf.per_step(kept).b == pytest.approx(acc_kf.per_step(acc_kf.spec_defaults()).b)
+
+    def rms(params: dict[str, float]) -> float:
+        return float(np.sqrt(np.mean((acc_kf.run(params, u)[:, 0] - trace.truth["v"]) ** 2)))
+
+    assert rms(p) < 0.85 * rms(kept)
+
+
+def test_the_slip_ceiling_is_a_parameter() -> None:
+    trace, u = drive(3, 12.0, 0, k_slip=0.2)  # low µ: the wheels slip to 0.5
+    p = acc_kf.spec_defaults()
+    low, high = (acc_kf.AccKF(p | {"s_max": s}) for s in (0.05, 0.9))
+    slips = []
+    for x in u:
+        low.step(x)
+        high.step(x)
+        slips.append((low.slip, high.slip))
+    assert np.max(slips, axis=0) == pytest.approx([0.05, 0.5], abs=0.03)

@@ -2,22 +2,22 @@
 
 #include <math.h>
 
+#include "estimators/accel_cond.h"
 #include "estimators/params.h"
 #include "fixmath/fixmath.h"
 #include "proto/wire.h"
 
-enum { P_T, P_RW, P_QV, P_QB, P_R, P_P0V, P_P0B, P_RBAR, P_C1, P_C2, P_VG, P_B0, N_PARAMS = P_B0 + 5 };
+enum { P_T, P_RW, P_NV, P_NB, P_R, P_P0V, P_P0B, P_RBAR, P_C1, P_C2, P_VG, P_LPF, P_SMAX, N_PARAMS };
 
 static const ROM param_range_t ranges[N_PARAMS] = {
-    {1e-4f, 0.1f, 30}, {0.1f, 1.0f, 24},  {0.0f, 1.0f, 30},  {0.0f, 1.0f, 30},
-    {1e-6f, 100.0f, 24}, {0.0f, 7.9f, 24}, {0.0f, 1.0f, 30}, {-1.0f, 1.0f, 30},
-    {0.0f, 1.0f, 0},   {0.0f, 1.0f, 0},   {0.0f, 10.0f, 16}, {-2.0f, 2.0f, 29},
-    {-2.0f, 2.0f, 29}, {-2.0f, 2.0f, 29}, {-2.0f, 2.0f, 29}, {-2.0f, 2.0f, 29},
+    {1e-4f, 0.1f, 30},   {0.1f, 1.0f, 24}, {0.0f, 10.0f, 27}, {0.0f, 1.0f, 30},
+    {1e-6f, 100.0f, 24}, {0.0f, 7.9f, 24}, {0.0f, 1.0f, 30},  {-1.0f, 1.0f, 30},
+    {0.0f, 1.0f, 0},     {0.0f, 1.0f, 0},  {0.0f, 10.0f, 16}, {0.0f, 100.0f, 24},
+    {0.0f, 0.99f, 30},
 };
 
-/* Slip clamp: beyond it the wheels carry no speed information. */
-#define ACC_KF_S_MAX 0.9f
-#define ACC_KF_S_MAX_Q30 INT32_C(966367642) /* 0.9 in Q30 */
+/* The low-pass's cutoff times T, at most (0.8 of Nyquist). */
+#define ACC_KF_LPF_MAX_FC_T 0.4f
 #define ONE_Q30 (INT32_C(1) << 30)
 
 /* -- float32 ------------------------------------------------------------- */
@@ -79,9 +79,9 @@ static uint8_t step_f32(acc_kf_state_t *st, const uint8_t *in, uint8_t *out)
             s->w2_prev = p->rbar * (a_f - s->af[1]); /* eq. 6 */
             if (braking && s->v > p->v_guard) {
                 float slip = 1.0f - v_m / s->v; /* eq. 7, for the next step */
-                if (slip < 0.0f || slip > ACC_KF_S_MAX) {
+                if (slip < 0.0f || slip > p->s_max) {
                     status |= STATUS_CLAMPED;
-                    slip = slip < 0.0f ? 0.0f : ACC_KF_S_MAX;
+                    slip = slip < 0.0f ? 0.0f : p->s_max;
                 }
                 s->slip = slip;
             } else {
@@ -157,7 +157,7 @@ static uint8_t step_q(acc_kf_state_t *st, const uint8_t *in, uint8_t *out)
         int32_t cm11 = m11, cm12 = m12, c_v_pred = v_pred;
         int32_t c2m11 = fx_rescale(m11, 28, 24, &status); /* Q24 */
         if (braking && st->corr2 && s->slip != 0) {
-            int32_t c = fx_sub(ONE_Q30, s->slip, &status); /* slip in (0, S_MAX] */
+            int32_t c = fx_sub(ONE_Q30, s->slip, &status); /* slip in (0, s_max] */
             cm11 = fx_mul(c, 30, m11, 28, 28, &status);
             cm12 = fx_mul(c, 30, m12, 28, 28, &status);
             c2m11 = fx_mul(c, 30, cm11, 28, 24, &status);
@@ -183,10 +183,9 @@ static uint8_t step_q(acc_kf_state_t *st, const uint8_t *in, uint8_t *out)
         if (braking && s->v > p->v_guard) {
             int32_t slip = /* s->v > v_guard > 0 */
                 fx_sub(ONE_Q30, fx_div_by(v_m, 20, fx_recip(s->v), 20, 30, &status), &status);
-            int32_t s_max = ACC_KF_S_MAX_Q30;
-            if (slip < 0 || slip > s_max) {
+            if (slip < 0 || slip > p->s_max) {
                 status |= STATUS_CLAMPED;
-                slip = slip < 0 ? 0 : s_max;
+                slip = slip < 0 ? 0 : p->s_max;
             }
             s->slip = slip;
         } else {
@@ -212,10 +211,38 @@ static void acc_kf_reset(void *state)
     }
 }
 
+/* The step's numbers from the physical parameters and T, in float32 for either mode
+ * (only IEEE operations, so the AVR and the host derive the same bits). */
+typedef struct {
+    float q_v, q_b, b[3], c[2];
+} per_step_t;
+
+static uint8_t derive(const uint8_t *params, uint8_t mode, per_step_t *d)
+{
+    float T = param_value(params, P_T, mode, 30);
+    float fc = param_value(params, P_LPF, mode, 24);
+    if (fc * T > ACC_KF_LPF_MAX_FC_T) {
+        return (uint8_t)(P_LPF + 1u);
+    }
+    float q_v = param_value(params, P_NV, mode, 27) * T;
+    float q_b = param_value(params, P_NB, mode, 30) * T;
+    if (fc > 0.0f) {
+        biquad_f32_t lp = butter2_lp(fc, T);
+        *d = (per_step_t){q_v, q_b, {lp.b0, lp.b1, lp.b0}, {-lp.a1, -lp.a2}};
+    } else {
+        *d = (per_step_t){q_v, q_b, {1.0f, 0.0f, 0.0f}, {0.0f, 0.0f}}; /* a_f = a_m */
+    }
+    return 0;
+}
+
 static uint8_t acc_kf_configure(void *state, uint8_t mode, const uint8_t *params)
 {
     acc_kf_state_t *st = state;
+    per_step_t d;
     uint8_t bad = params_check(params, mode, ranges, N_PARAMS);
+    if (bad == 0) {
+        bad = derive(params, mode, &d);
+    }
     if (bad != 0) {
         return bad;
     }
@@ -226,18 +253,19 @@ static uint8_t acc_kf_configure(void *state, uint8_t mode, const uint8_t *params
         acc_kf_params_f32_t *p = &st->u.f32.p;
         p->T = get_f32(params + 4u * P_T);
         p->r_w_half = 0.5f * get_f32(params + 4u * P_RW);
-        p->q_v = get_f32(params + 4u * P_QV);
-        p->q_b = get_f32(params + 4u * P_QB);
+        p->q_v = d.q_v;
+        p->q_b = d.q_b;
         p->R = get_f32(params + 4u * P_R);
         p->p0_v = get_f32(params + 4u * P_P0V);
         p->p0_b = get_f32(params + 4u * P_P0B);
         p->rbar = get_f32(params + 4u * P_RBAR);
         p->v_guard = get_f32(params + 4u * P_VG);
+        p->s_max = get_f32(params + 4u * P_SMAX);
         for (uint8_t i = 0; i < 3u; i++) {
-            p->b[i] = get_f32(params + 4u * (P_B0 + i));
+            p->b[i] = d.b[i];
         }
         for (uint8_t i = 0; i < 2u; i++) {
-            p->c[i] = get_f32(params + 4u * (P_B0 + 3u + i));
+            p->c[i] = d.c[i];
         }
     } else {
         acc_kf_params_q_t *p = &st->u.q.p;
@@ -245,18 +273,19 @@ static uint8_t acc_kf_configure(void *state, uint8_t mode, const uint8_t *params
         p->T = param_q(params, P_T);
         p->T2 = fx_mul(p->T, 30, p->T, 30, 30, &sat); /* T² P22: one product a step, not two */
         p->r_w_half = param_q(params, P_RW) / 2; /* Q24; the radius is positive */
-        p->q_v = fx_rescale(param_q(params, P_QV), 30, 28, &sat);
-        p->q_b = param_q(params, P_QB);
+        p->q_v = fx_from_float(d.q_v, 28, &sat);
+        p->q_b = fx_from_float(d.q_b, 30, &sat);
         p->R = param_q(params, P_R);
         p->p0_v = fx_rescale(param_q(params, P_P0V), 24, 28, &sat);
         p->p0_b = param_q(params, P_P0B);
         p->rbar = param_q(params, P_RBAR);
         p->v_guard = fx_rescale(param_q(params, P_VG), 16, 20, &sat);
+        p->s_max = param_q(params, P_SMAX);
         for (uint8_t i = 0; i < 3u; i++) {
-            p->b[i] = param_q(params, (uint8_t)(P_B0 + i));
+            p->b[i] = fx_from_float(d.b[i], 29, &sat);
         }
         for (uint8_t i = 0; i < 2u; i++) {
-            p->c[i] = param_q(params, (uint8_t)(P_B0 + 3u + i));
+            p->c[i] = fx_from_float(d.c[i], 29, &sat);
         }
     }
     acc_kf_reset(st);

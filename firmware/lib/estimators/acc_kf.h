@@ -6,8 +6,12 @@
  *
  * Inputs  a_m [m/s²] Q24, ω_l, ω_r [rad/s] Q16, brake [0/1] Q0.
  * Outputs v̂_r [m/s] Q16, â_0 [m/s²] Q24.
- * Params  T Q30, r_w Q24, q_v Q30, q_b Q30, R Q24, p0_v Q24, p0_b Q30, r̄ Q30,
- *         corr1 Q0, corr2 Q0, v_guard Q16, b0 b1 b2 c1 c2 Q29 (LPF, eq. 4b). */
+ * Params  T [s] Q30, r_w [m] Q24, n_v [(m/s)²/s] Q27, n_b [(m/s²)²/s] Q30, R [(m/s)²]
+ *         Q24, p0_v Q24, p0_b Q30, r̄ Q30, corr1 Q0, corr2 Q0, v_guard [m/s] Q16,
+ *         lpf_hz [Hz] Q24 (0: a_f = a_m), s_max Q30.
+ * CONFIG derives the step's numbers from them and T: Q11 = n_v T, Q22 = n_b T and the
+ * LPF's eq. 4b coefficients (a Butterworth at lpf_hz, lpf_hz T <= 0.4), so the step
+ * itself sees per-step values only. */
 #ifndef VEHIL_ESTIMATORS_ACC_KF_H
 #define VEHIL_ESTIMATORS_ACC_KF_H
 
@@ -18,7 +22,7 @@
 #define ACC_KF_ID 10u
 
 typedef struct {
-    float T, r_w_half, q_v, q_b, R, p0_v, p0_b, rbar, v_guard;
+    float T, r_w_half, q_v, q_b, R, p0_v, p0_b, rbar, v_guard, s_max;
     float b[3], c[2];
 } acc_kf_params_f32_t;
 
@@ -41,6 +45,7 @@ typedef struct {
     int32_t p0_b;         /* Q30 */
     int32_t rbar;         /* Q30 */
     int32_t v_guard;      /* Q20 */
+    int32_t s_max;        /* Q30 */
     int32_t b[3], c[2];   /* Q29 */
 } acc_kf_params_q_t;
 

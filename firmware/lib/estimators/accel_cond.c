@@ -18,7 +18,7 @@ static float tan_cf(float x)
     return x / d;
 }
 
-static biquad_f32_t butter2_lp(float fc, float T)
+biquad_f32_t butter2_lp(float fc, float T)
 {
     float k = tan_cf(PI_F * fc * T);
     float norm = 1.0f / (1.0f + SQRT2_F * k + k * k);

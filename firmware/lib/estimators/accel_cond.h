@@ -69,6 +69,9 @@ typedef struct {
 
 extern const ROM param_range_t accel_cond_ranges[ACCEL_COND_N_PARAMS];
 
+/* The 2nd-order Butterworth low-pass at fc (Hz) for sample time T (s), fc T < 1/2. */
+biquad_f32_t butter2_lp(float fc, float T);
+
 void accel_cond_design_f32(accel_cond_f32_t *c, const uint8_t *params, uint8_t first,
                            uint8_t mode, float T);
 void accel_cond_q_from_f32(accel_cond_q_t *q, const accel_cond_f32_t *c, uint8_t *status);

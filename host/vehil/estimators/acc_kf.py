@@ -10,6 +10,12 @@ Correction 2 (§1.6): while braking C = [1 - s(k-1), 0], s = 1 - v_m / v̂_r fro
 previous step. Guards the patent lacks (note §1.6 [A]): s = 0 below `v_guard`,
 s clamped to [0, s_max]; P kept symmetric.
 
+The parameters are physical, so a scenario changes T (its sample_time) or the car in one
+line: the process noise as densities (Q = diag(n_v, n_b) T, white noise on the speed and
+a random walk of the bias), the low-pass as its cutoff (a Butterworth by the bilinear
+transform with prewarping; 0 passes a_m, the patent's high-SNR case). The per-step
+numbers are derived from them and T at CONFIG (`per_step`), on the board as here.
+
 The float64 reference here is the same step the board runs (firmware/lib/estimators/
 acc_kf.c), in double precision; `corr1`/`corr2` switch the corrections for the four
 variants the note compares.
@@ -21,29 +27,36 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import signal
 
 from vehil.estimators import register
+from vehil.estimators._accel_conditioning import butter2
 from vehil.estimators.base import EstimatorSpec, Param, Signal
 
-T_DEFAULT = 0.01
-LPF_CUTOFF_HZ = 2.0
-S_MAX = 0.9  # slip clamp: above it the wheels are locked and carry no speed information
-
-
-def butterworth(cutoff_hz: float = LPF_CUTOFF_HZ, T: float = T_DEFAULT) -> dict[str, float]:
-    """Note §1.9's LPF as the patent's (4b) coefficients: a_f = Σ b_i a_m(k-i) + Σ c_j a_f(k-j)."""
-    b, a = signal.butter(2, cutoff_hz, fs=1.0 / T)
-    return {"b0": b[0], "b1": b[1], "b2": b[2], "c1": -a[1], "c2": -a[2]}
-
-
-_LPF = butterworth()
+# The low-pass's cutoff may reach 0.4 of the sample rate (0.8 of Nyquist): beyond it the
+# prewarped design has no margin left and the filter does not smooth anything.
+LPF_MAX_FC_T = 0.4
 
 PARAMS = (
-    Param("T", "s", q=30, default=T_DEFAULT, lo=1e-4, hi=0.1, doc="sample time"),
+    Param("T", "s", q=30, default=0.01, lo=1e-4, hi=0.1, doc="sample time"),
     Param("r_w", "m", q=24, default=0.30, lo=0.1, hi=1.0, doc="non-driven wheel radius"),
-    Param("q_v", "(m/s)^2", q=30, default=1e-5, lo=0.0, hi=1.0, doc="Q11"),
-    Param("q_b", "(m/s^2)^2", q=30, default=1e-6, lo=0.0, hi=1.0, doc="Q22"),
+    Param(
+        "n_v",
+        "(m/s)^2/s",
+        q=27,
+        default=1e-3,
+        lo=0.0,
+        hi=10.0,
+        doc="speed process-noise density: Q11 = n_v T (note §1.9's 1e-5 at 10 ms)",
+    ),
+    Param(
+        "n_b",
+        "(m/s^2)^2/s",
+        q=30,
+        default=1e-4,
+        lo=0.0,
+        hi=1.0,
+        doc="bias random-walk density: Q22 = n_b T (note §1.9's 1e-6 at 10 ms)",
+    ),
     Param("R", "(m/s)^2", q=24, default=0.05, lo=1e-6, hi=100.0, doc="measurement noise"),
     Param("p0_v", "(m/s)^2", q=24, default=1.0, lo=0.0, hi=7.9, doc="P(0) speed"),
     Param("p0_b", "(m/s^2)^2", q=30, default=0.1, lo=0.0, hi=1.0, doc="P(0) bias"),
@@ -51,11 +64,51 @@ PARAMS = (
     Param("corr1", "1", q=0, default=1.0, lo=0.0, hi=1.0, doc="correction 1 on (1) / off (0)"),
     Param("corr2", "1", q=0, default=1.0, lo=0.0, hi=1.0, doc="correction 2 on (1) / off (0)"),
     Param("v_guard", "m/s", q=16, default=0.5, lo=0.0, hi=10.0, doc="no slip below this speed"),
-    *(
-        Param(n, "1", q=29, default=float(v), lo=-2.0, hi=2.0, doc="LPF (4b)")
-        for n, v in _LPF.items()
+    Param(
+        "lpf_hz",
+        "Hz",
+        q=24,
+        default=2.0,
+        lo=0.0,
+        hi=100.0,
+        doc="low-pass cutoff of a_f (note §1.9), at most 0.4/T; 0: a_f = a_m",
+    ),
+    Param(
+        "s_max",
+        "1",
+        q=30,
+        default=0.9,
+        lo=0.0,
+        hi=0.99,
+        doc="slip ceiling: above it the wheels are taken as locked, carrying no speed",
     ),
 )
+
+
+@dataclass(frozen=True)
+class PerStep:
+    """Q11, Q22 and the LPF as the patent's (4b): a_f = Σ b_i a_m(k-i) + Σ c_j a_f(k-j)."""
+
+    q_v: float
+    q_b: float
+    b: tuple[float, float, float]
+    c: tuple[float, float]
+
+
+def per_step(p: Mapping[str, float]) -> PerStep:
+    """The step's numbers from the physical parameters and T, as CONFIG derives them."""
+    T, fc = p["T"], p["lpf_hz"]
+    if fc * T > LPF_MAX_FC_T:
+        raise ValueError(
+            f"acc_kf: lpf_hz = {fc:g} Hz is above {LPF_MAX_FC_T:g}/T = {LPF_MAX_FC_T / T:g} Hz "
+            "at this sample time: lower it, or 0 to pass a_m unfiltered"
+        )
+    if fc > 0.0:
+        lp = butter2(fc, T, highpass=False)
+        b, c = (lp.b0, lp.b1, lp.b2), (-lp.a1, -lp.a2)
+    else:
+        b, c = (1.0, 0.0, 0.0), (0.0, 0.0)
+    return PerStep(p["n_v"] * T, p["n_b"] * T, b, c)
 
 
 @dataclass
@@ -65,6 +118,7 @@ class AccKF:
     p: Mapping[str, float]
 
     def __post_init__(self) -> None:
+        self.k = per_step(self.p)
         self.started = False
         self.v = self.a0 = 0.0
         self.P = np.diag([self.p["p0_v"], self.p["p0_b"]])
@@ -75,13 +129,13 @@ class AccKF:
         self.af_hist = [0.0, 0.0]  # a_f(k-1), a_f(k-2)
 
     def _lpf(self, a_m: float) -> float:
-        p = self.p
+        b, c = self.k.b, self.k.c
         a_f = (
-            p["b0"] * a_m
-            + p["b1"] * self.am_hist[0]
-            + p["b2"] * self.am_hist[1]
-            + p["c1"] * self.af_hist[0]
-            + p["c2"] * self.af_hist[1]
+            b[0] * a_m
+            + b[1] * self.am_hist[0]
+            + b[2] * self.am_hist[1]
+            + c[0] * self.af_hist[0]
+            + c[1] * self.af_hist[1]
         )
         self.am_hist = [a_m, self.am_hist[0]]
         self.af_hist = [a_f, self.af_hist[0]]
@@ -106,9 +160,9 @@ class AccKF:
         v_pred = self.v + T * (self.u_prev - self.a0)
         b_pred = self.a0 + w2
         P = self.P
-        m11 = P[0, 0] - 2 * T * P[0, 1] + T * T * P[1, 1] + p["q_v"]
+        m11 = P[0, 0] - 2 * T * P[0, 1] + T * T * P[1, 1] + self.k.q_v
         m12 = P[0, 1] - T * P[1, 1]
-        m22 = P[1, 1] + p["q_b"]
+        m22 = P[1, 1] + self.k.q_b
         c = 1.0 - self.slip if (braking and p["corr2"] >= 0.5) else 1.0
         S = c * c * m11 + p["R"]
         k1, k2 = c * m11 / S, c * m12 / S
@@ -122,7 +176,7 @@ class AccKF:
         a_f = self._lpf(a_m)
         self.w2_prev = p["rbar"] * (a_f - self.af_hist[1])
         if braking and self.v > p["v_guard"]:
-            self.slip = min(max(1.0 - v_m / self.v, 0.0), S_MAX)
+            self.slip = min(max(1.0 - v_m / self.v, 0.0), p["s_max"])
         else:
             self.slip = 0.0
         self.u_prev = a_m
