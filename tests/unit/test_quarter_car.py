@@ -69,3 +69,35 @@ def test_forward_euler_at_100_hz_is_unstable_for_the_wheel_hop_mode() -> None:
     growth = np.abs(1 + 0.01 * lam)
     assert growth.max() == pytest.approx(1.079, abs=2e-3)  # note §1.2
     assert np.abs(lam).max() / (2 * np.pi) == pytest.approx(9.25, abs=0.01)
+
+
+def test_bumps_and_chirp_roads_have_their_shape() -> None:
+    bumps = simulate_with(params(road=3, speed_kmh=36, bump_h=0.02, bump_len=1.0), 4.0, 0.01, 1)
+    x_r = bumps.truth["x_r"]
+    assert x_r.max() == pytest.approx(0.02, abs=2e-4)
+    assert np.mean(x_r > 0) == pytest.approx(1.0 / 15.0, abs=0.01)  # 1 m of every 15 m
+    chirp = simulate_with(params(road=4, f_lo=1.0, f_hi=9.0, chirp_s=4.0), 4.0, 0.001, 1)
+    crossings = np.flatnonzero(np.diff(np.sign(chirp.truth["x_r"])) != 0)
+    # 1 -> 9 Hz linearly over 4 s: 20 cycles, 40 zero crossings
+    assert len(crossings) == pytest.approx(40, abs=2)
+
+
+def test_dahl_friction_holds_the_strut_until_the_force_passes_the_coulomb_level() -> None:
+    """Under a force below the friction level the Dahl strut stays near where the step left
+    it (Dahl's model creeps a little); the tanh Coulomb model creeps on towards the
+    spring's equilibrium."""
+    quiet = {**QUIET, "road_amp": 0.0, "friction": 300.0, "ms_scale": 1.0, "k1_scale": 1.0}
+    dahl = simulate_with(params(friction_k=1e5, **quiet), 6.0, 0.01, 1, force=lambda t, tr: 200.0)
+    coulomb = simulate_with(params(**quiet), 6.0, 0.01, 1, force=lambda t, tr: 200.0)
+    creep_dahl, creep_coulomb = (np.ptp(tr.truth["defl"][-300:]) for tr in (dahl, coulomb))
+    assert creep_dahl < 0.25 * creep_coulomb
+    assert 0 < dahl.truth["defl"][-1] < coulomb.truth["defl"][-1]
+
+
+def test_enveloping_and_sensor_bandwidth_smooth_what_the_car_and_sensors_see() -> None:
+    base = {**QUIET, "road": 2, "speed_kmh": 60.0}
+    sharp = simulate_with(params(**base), 5.0, 0.01, 1)
+    soft = simulate_with(params(**base, patch_len=0.2, acc_bw=20.0), 5.0, 0.01, 1)
+    # the same road, its short waves averaged over the patch, the accelerometers band-limited
+    assert np.corrcoef(sharp.truth["x_r"], soft.truth["x_r"])[0, 1] > 0.98
+    assert np.std(np.diff(soft.signals["a_us"])) < 0.8 * np.std(np.diff(sharp.signals["a_us"]))
