@@ -187,3 +187,26 @@ def test_division_through_a_reciprocal_keeps_its_stated_error(native_lib) -> Non
                 assert status.value == 0
             else:
                 assert got == (2**31 - 1 if exact > 0 else -(2**31)) and status.value & 0x01
+
+
+def test_fx_dot16_sums_int16_products_modulo_2_to_the_32(native_lib) -> None:  # noqa: ANN001
+    """The int16 dot product (the AVR's assembly loop has this C twin) against Python's
+    integers, on the edges (-2^15 squared) and random operands, wrapping like int32."""
+    f = native_lib.fx_dot16_c
+    f.argtypes = [ctypes.POINTER(ctypes.c_int16), ctypes.POINTER(ctypes.c_int16), ctypes.c_uint8]
+    f.restype = ctypes.c_int32
+    rng = np.random.default_rng(17)
+    cases = [([-(2**15)] * 9, [-(2**15)] * 9), ([2**15 - 1] * 3, [-(2**15)] * 3), ([], [])]
+    for _ in range(2000):
+        n = int(rng.integers(0, 12))
+        cases.append(
+            (
+                [int(v) for v in rng.integers(-(2**15), 2**15, n)],
+                [int(v) for v in rng.integers(-(2**15), 2**15, n)],
+            )
+        )
+    for a, b in cases:
+        want = sum(x * y for x, y in zip(a, b, strict=True)) % 2**32
+        want -= 2**32 if want >= 2**31 else 0
+        arr = ctypes.c_int16 * max(1, len(a))
+        assert f(arr(*a), arr(*b), len(a)) == want, (a, b)

@@ -260,21 +260,37 @@ static int8_t fit(uint8_t peak_bits, int32_t limit)
     return (int8_t)(peak_bits - longit_bit_length((uint32_t)limit));
 }
 
-/* in[0..n) · 2^-k (rounded half up) with |out| <= limit and as many bits as that
- * allows; returns k (0 for zeros). int32: the AVR's int64 shifts cost a call each. */
-static int8_t normalize(const int32_t *in, int32_t *out, uint8_t n, int32_t limit)
+/* in[0..n) · 2^-k (rounded half up) as int16 with |out| <= limit (14 bits) and as many
+ * bits as that allows; returns k (0 for zeros). int32: the AVR's int64 shifts cost a
+ * call each; the shift split into whole bytes and bits once, not per entry. */
+#define LIMIT_BITS 14
+typedef char stlqf_limits_are_14_bits[(COL_LIMIT >> 13) == 1 && (X_LIMIT >> 13) == 1 ? 1 : -1];
+
+static int8_t normalize(const int32_t *in, int16_t *out, uint8_t n, int32_t limit)
 {
     uint32_t peak = 0;
     for (uint8_t i = 0; i < n; i++) {
         uint32_t mag = in[i] < 0 ? (uint32_t)0 - (uint32_t)in[i] : (uint32_t)in[i];
         peak = mag > peak ? mag : peak;
     }
-    int8_t k = peak != 0u ? fit(longit_bit_length(peak), limit) : 0;
-    if (k > 0 && ((peak >> (k - 1)) + 1u) >> 1 > (uint32_t)limit) {
+    int8_t k = peak != 0u ? (int8_t)(longit_bit_length(peak) - LIMIT_BITS) : 0;
+    if (k <= 0) { /* |in| < 2^14: a shift up in int16 */
+        for (uint8_t i = 0; i < n; i++) {
+            out[i] = (int16_t)((uint16_t)in[i] << -k);
+        }
+        return k;
+    }
+    if (((peak >> (k - 1)) + 1u) >> 1 > (uint32_t)limit) {
         k++; /* rounding up would pass the limit */
     }
+    int32_t half = (int32_t)1 << (k - 1);
+    uint8_t bytes = (uint8_t)((uint8_t)k >> 3), bits = (uint8_t)(k & 7);
     for (uint8_t i = 0; i < n; i++) { /* |in| < 2^30 */
-        out[i] = k > 0 ? shift_down(in[i], (uint8_t)k) : in[i] * ((int32_t)1 << -k);
+        int32_t v = in[i] + half;
+        for (uint8_t b = 0; b < bytes; b++) {
+            v >>= 8;
+        }
+        out[i] = (int16_t)(v >> bits);
     }
     return k;
 }
@@ -305,30 +321,17 @@ static int8_t normalize64(const int64_t *in, int32_t *out, uint8_t n, int32_t li
  * scale, the same for every column, which cancels in the solve). */
 static int8_t weigh(const int16_t band[STLQF_ROWS][3], const int32_t *col, int16_t *x)
 {
-    int32_t c[STLQF_ROWS], wide[STLQF_ROWS];
+    int16_t c[STLQF_ROWS];
+    int32_t wide[STLQF_ROWS];
     int8_t e = normalize(col, c, STLQF_ROWS, COL_LIMIT);
-    for (uint8_t i = 0; i < STLQF_ROWS; i++) {
-        int32_t acc = 0;
-        for (uint8_t d = 0; d < 3u && i + d < STLQF_ROWS; d++) {
-            acc += (int32_t)band[i][d] * (int16_t)c[i + d];
-        }
-        wide[i] = acc;
+    for (uint8_t i = 0; i < STLQF_ROWS; i++) { /* R's band: three entries, fewer at the end */
+        wide[i] = fx_dot16(band[i], c + i, i + 3u <= STLQF_ROWS ? 3u : (uint8_t)(STLQF_ROWS - i));
     }
-    e = (int8_t)(e + normalize(wide, c, STLQF_ROWS, X_LIMIT));
-    for (uint8_t i = 0; i < STLQF_ROWS; i++) {
-        x[i] = (int16_t)c[i];
-    }
-    return e;
+    return (int8_t)(e + normalize(wide, x, STLQF_ROWS, X_LIMIT));
 }
 
-static int32_t dot_q(const int16_t *a, const int16_t *b)
-{
-    int32_t acc = 0; /* nine products of at most X_LIMIT² fit */
-    for (uint8_t i = 0; i < STLQF_ROWS; i++) {
-        acc += (int32_t)a[i] * b[i];
-    }
-    return acc;
-}
+/* nine products of at most X_LIMIT² fit int32 */
+static int32_t dot_q(const int16_t *a, const int16_t *b) { return fx_dot16(a, b, STLQF_ROWS); }
 
 static uint8_t configure_q(stlqf_q_t *q, const uint8_t *params, const int32_t band[STLQF_ROWS][3])
 {
@@ -342,12 +345,9 @@ static uint8_t configure_q(stlqf_q_t *q, const uint8_t *params, const int32_t ba
     }
     q->mu = param_q(params, P_MU);
     q->log2_cond_flag = fx_log2_q24(param_q(params, P_COND), 0);
-    int32_t flat[STLQF_ROWS * 3];
-    memcpy(flat, band, sizeof flat);
-    normalize(flat, flat, STLQF_ROWS * 3u, COL_LIMIT);
-    for (uint8_t i = 0; i < STLQF_ROWS * 3u; i++) {
-        q->band[i / 3u][i % 3u] = (int16_t)flat[i];
-    }
+    int16_t flat[STLQF_ROWS * 3];
+    normalize(&band[0][0], flat, STLQF_ROWS * 3u, COL_LIMIT);
+    memcpy(q->band, flat, sizeof flat);
     /* g/cos ε's filtered columns, exact: (τ + χ1/T) g' and g', in Q42. */
     int64_t col[2][STLQF_ROWS];
     int32_t narrow[STLQF_ROWS];

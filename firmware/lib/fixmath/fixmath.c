@@ -52,6 +52,15 @@ int32_t fx_mul16_c(int32_t a, int16_t b, uint8_t s, uint8_t *status)
 /* fx_umul16_q15 out of line, for the native tests. */
 uint32_t fx_umul16_q15_c(uint32_t a, uint16_t b) { return fx_umul16_q15(a, b); }
 
+int32_t fx_dot16_c(const int16_t *a, const int16_t *b, uint8_t n)
+{
+    uint32_t acc = 0; /* modulo 2^32, as the AVR's bytes */
+    for (uint8_t i = 0; i < n; i++) {
+        acc += (uint32_t)((int32_t)a[i] * b[i]);
+    }
+    return (int32_t)acc;
+}
+
 int32_t fx_mul_shr_c(int32_t a, int32_t b, uint8_t s, uint8_t *status)
 {
     return fx_sat(((int64_t)a * b + ((int64_t)1 << (s - 1u))) >> s, status);

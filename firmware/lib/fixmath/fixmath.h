@@ -192,6 +192,16 @@ FX_INLINE uint32_t fx_umul16_q15(uint32_t a, uint16_t b)
 
 uint32_t fx_umul16_q15_c(uint32_t a, uint16_t b);
 
+/* Σ a[i] b[i] for i < n, int16 pairs summed in int32 (modulo 2^32: the caller keeps the
+ * sum in range). On the AVR an assembly loop of hardware multiplies (fx_dot16_avr.S, ~35
+ * cycles a pair); the C twin gives the same bits. */
+int32_t fx_dot16_c(const int16_t *a, const int16_t *b, uint8_t n);
+#if defined(__AVR__)
+int32_t fx_dot16(const int16_t *a, const int16_t *b, uint8_t n);
+#else
+#define fx_dot16 fx_dot16_c
+#endif
+
 /* a (qa) * b (qb) -> q_out, ties away from zero; qa + qb <= q_out (no fraction bit to
  * drop) or a shift past 62 goes through int64 (fx_mul_wide). */
 int32_t fx_mul_wide(int32_t a, uint8_t qa, int32_t b, uint8_t qb, uint8_t q_out, uint8_t *status);

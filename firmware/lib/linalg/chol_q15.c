@@ -47,10 +47,8 @@ uint8_t chol_solve_q15(const int32_t *a, int32_t *b, uint8_t n, int16_t *l, uint
     int32_t inv[CHOL_Q15_MAX_N]; /* 1 / l_jj, Q16 */
     for (uint8_t j = 0; j < n; j++) {
         for (uint8_t i = j; i < n; i++) {
-            int32_t s = a[i * n + j]; /* Q30; the sums stay below sqrt(a_ii a_jj) < 1 */
-            for (uint8_t k = 0; k < j; k++) {
-                s -= (int32_t)l[i * n + k] * l[j * n + k];
-            }
+            /* Q30; the sums stay below sqrt(a_ii a_jj) < 1 */
+            int32_t s = a[i * n + j] - fx_dot16(l + i * n, l + j * n, j);
             if (i == j) {
                 if (s < ((int32_t)1 << 10)) {
                     return 0;
