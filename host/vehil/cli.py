@@ -15,7 +15,15 @@ from typing import Any
 from rich.markup import escape
 from rich.table import Table
 
-from vehil.boards import DEFAULT_BOARD, VIRTUAL_BOARDS, Board, make_board, open_board
+from vehil.boards import (
+    DEFAULT_BOARD,
+    VIRTUAL_BOARDS,
+    Board,
+    BoardOptions,
+    SimavrOptions,
+    make_board,
+    open_board,
+)
 from vehil.errors import Terminated, VehilError
 from vehil.link import BoardInfo, Link
 from vehil.paths import runs_dir
@@ -66,12 +74,16 @@ def _add_run_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", default=None, help="folder for run.arrow and the report")
 
 
+def _options(args: argparse.Namespace) -> BoardOptions:
+    return BoardOptions(timeout_s=args.timeout, faults=args.faults)
+
+
 def _board(args: argparse.Namespace) -> Board:
-    return make_board(args.board, timeout_s=args.timeout, faults=args.faults)
+    return make_board(args.board, _options(args))
 
 
 def _connect(args: argparse.Namespace):  # noqa: ANN202
-    return open_board(args.board, timeout_s=args.timeout, faults=args.faults)
+    return open_board(args.board, _options(args))
 
 
 def _maybe_switch_baud(link: Link, baud: int | None) -> None:
@@ -157,13 +169,14 @@ def cmd_info(args: argparse.Namespace) -> int:
 
 def cmd_flash(args: argparse.Namespace) -> int:
     from vehil import flash
-    from vehil.boards.serialport import SerialBoard, ports_seen
+    from vehil.boards import ports_seen
+    from vehil.boards.serialport import SerialBoard
     from vehil.errors import NoPort
 
     if args.port:
-        board: Board = SerialBoard(args.port, timeout_s=args.timeout)
+        board: Board = SerialBoard(args.port, BoardOptions(timeout_s=args.timeout))
     elif args.board:
-        board = make_board(args.board, timeout_s=args.timeout)
+        board = make_board(args.board, BoardOptions(timeout_s=args.timeout))
     else:
         raise NoPort(
             f"give the board's port (--port /dev/ttyACM0; ports seen: {ports_seen()}) "
@@ -342,7 +355,7 @@ def cmd_run(args: argparse.Namespace) -> int:
 
         recording = recording or runner.default_recording_path(sc, args.board)
         profiled = collect.session(args.board, "step", recording.parent / "profile")
-        board = profiled.board(args.board, timeout_s=args.timeout, faults=args.faults)
+        board = profiled.board(args.board, _options(args))
     run = runner.run(
         sc,
         board,
@@ -507,8 +520,8 @@ def cmd_profile(args: argparse.Namespace) -> int:
         profile.BAUDS_ALL if args.bauds == "all" else tuple(int(b) for b in args.bauds.split(","))
     )
     # simavr paced to the wall clock, so host-clock round trips are the chip's.
-    options = {"realtime": True} if args.board == "simavr" else {}
-    board = make_board(args.board, timeout_s=args.timeout, **options)
+    simavr = SimavrOptions(realtime=True) if args.board == "simavr" else None
+    board = make_board(args.board, BoardOptions(timeout_s=args.timeout), simavr)
     figures: dict = {"board": args.board, "uart": [vars(profile.uart_setting(b)) for b in bauds]}
     console.print(profile_report.uart_table(figures["uart"]))
     misses: list[str] = []

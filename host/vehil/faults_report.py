@@ -31,7 +31,7 @@ from typing import Any
 from rich.console import Console
 from rich.table import Table
 
-from vehil.boards import open_board
+from vehil.boards import BoardOptions, open_board
 from vehil.errors import BoardError, LinkError, VehilError
 from vehil.protocol import frame as framing
 from vehil.protocol.schema import SCHEMA
@@ -46,30 +46,32 @@ def measure(
     board: str, kind: str, rate: float, pings: int = 100, samples: int = 2000
 ) -> dict[str, Any]:
     rng = random.Random(1)
-    with open_board(board, timeout_s=2.0, faults=f"{kind}={rate},seed=9") as link:
-        link.timeout_s = 0.1 if board == "simavr" else 0.3
-        link.retries = 0
+    timeout_s = 0.1 if board == "simavr" else 0.3
+    with open_board(
+        board, BoardOptions(timeout_s=timeout_s, faults=f"{kind}={rate},seed=9")
+    ) as link:
         ok = detected = wrong = 0
         for _ in range(pings):
             payload = rng.randbytes(16)
             try:
-                echo = link.request("PING", payload=payload).fields()["payload"]
+                echo = link.request("PING", retries=0, payload=payload).fields()["payload"]
             except LinkError:
                 detected += 1
                 continue
             ok += 1
             wrong += echo != payload
-        link.retries = 3
         recovered = 0
         for _ in range(pings):
             with contextlib.suppress(LinkError):  # all retries lost: counted as not recovered
-                recovered += link.request("PING", payload=b"again").fields()["payload"] == b"again"
-        link.retries = 20  # at 1e-2 per byte half the exchanges fail
+                echo = link.request("PING", retries=3, payload=b"again").fields()["payload"]
+                recovered += echo == b"again"
         link.configure("passthrough", "F32")
         streamed, loss, resent = 0, "", link.retried
         try:
             inputs = (struct.pack("<4f", k, k, k, k) for k in range(samples))
-            for k, reply in enumerate(link.pipeline(("SAMPLE", {"inputs": x}) for x in inputs)):
+            # at 1e-2 per byte half the exchanges fail
+            samples_out = link.pipeline((("SAMPLE", {"inputs": x}) for x in inputs), retries=20)
+            for k, reply in enumerate(samples_out):
                 if reply.fields()["outputs"] != struct.pack("<4f", k, k, k, k):
                     wrong += 1
                 streamed += 1
@@ -173,15 +175,16 @@ def campaign_row(
         return codec_row(kind, rate, faults, max_s, seed)
     row = CampaignRow(board, kind, rate)
     rng = random.Random(seed)
-    with open_board(board, timeout_s=2.0, faults=f"{kind}={rate},seed={seed}") as link:
-        link.timeout_s = CAMPAIGN_TIMEOUT_S.get(board, 0.1)
-        link.retries = 0
+    timeout_s = CAMPAIGN_TIMEOUT_S.get(board, 0.1)
+    with open_board(
+        board, BoardOptions(timeout_s=timeout_s, faults=f"{kind}={rate},seed={seed}")
+    ) as link:
         counts = link.port.counts
         for _ in row.until(faults, max_s):
             payload = rng.randbytes(rng.randint(1, 32))
             before = counts.total()
             try:
-                echo = link.request("PING", payload=payload).fields()["payload"]
+                echo = link.request("PING", retries=0, payload=payload).fields()["payload"]
             except (LinkError, BoardError, ValueError):  # ValueError: a body of the wrong shape
                 echo = None
             row.count(counts.total() - before, echo == payload, echo not in (None, payload))
@@ -240,7 +243,7 @@ def run_campaign(args: argparse.Namespace, console: Console) -> int:
 
 def reset_recovery_s(board: str, what: int = 1) -> float:
     """From a reboot request (what=1) or a hang (2: the watchdog must act) to HELLO answered."""
-    with open_board(board, timeout_s=2.0) as link:
+    with open_board(board) as link:
         start = time.perf_counter()
         link.request("RESET", what=what)
         link.wait_ready(10.0)
@@ -258,7 +261,9 @@ def resumed_run(board: str, scenario_name: str = "mixed", duration: float = 20.0
     sc = dataclasses.replace(scenario.load(scenario_name), duration=duration)
     n = int(duration / sc.sample_time)
     run = runner.run(
-        sc, make_board(board, faults=f"reboot_after={n // 2}"), console=Console(quiet=True)
+        sc,
+        make_board(board, BoardOptions(faults=f"reboot_after={n // 2}")),
+        console=Console(quiet=True),
     )
     if run.error or not run.resumes:
         return f"not resumed: {run.error or 'no reset seen'}"

@@ -137,7 +137,14 @@ def describe_error(fields: dict[str, Any]) -> str:
 class Link:
     """Framed request/reply over an open pyserial port."""
 
-    def __init__(self, port: serial.SerialBase, *, timeout_s: float = 2.0):
+    def __init__(
+        self,
+        port: serial.SerialBase,
+        *,
+        timeout_s: float = 2.0,
+        retries: int = 5,
+        max_frames: int | None = None,
+    ):
         self.port = port
         self.timeout_s = timeout_s
         # Every seq sent, with its request's type: a reply's CRC covers that type, so a
@@ -149,8 +156,8 @@ class Link:
         self._inbox: deque[tuple[framing.Frame, float]] = deque()
         self.stale_replies = 0
         self.wrong_type_replies = 0
-        self.retries = 5  # for requests that sending twice does not change
-        self.max_frames = MAX_FRAMES_IN_FLIGHT  # a board may ask for fewer (QEMU)
+        self.retries = retries  # for requests that sending twice does not change
+        self.max_frames = max_frames or MAX_FRAMES_IN_FLIGHT  # a board may ask for fewer
         self.retried = 0
         self.sample_index = 0  # the next SAMPLE's index: 0 after CONFIG
         # Short reads, set once: changing a real port's timeout reconfigures the tty.
@@ -224,13 +231,18 @@ class Link:
             )
 
     def pipeline(
-        self, requests: Iterable[tuple[str, dict[str, Any]]], *, window: int | None = None
+        self,
+        requests: Iterable[tuple[str, dict[str, Any]]],
+        *,
+        window: int | None = None,
+        retries: int | None = None,
     ) -> Iterator[Reply]:
         """Sends requests keeping the board's RX buffer from overflowing; yields replies in order.
 
         A request or reply lost on the way (timeout, or a later reply first) is sent
         again with everything sent after it (go-back-N), `retries` times with backoff,
-        if all of them are retryable; then BoardTimeout or LinkError names the request.
+        if all of them are retryable (`retries`: this call's own count instead of the
+        link's); then BoardTimeout or LinkError names the request.
         Raises BoardError for an ERROR reply.
         """
         budget = self.info.rx_buffer if self.info else 64
@@ -247,7 +259,7 @@ class Link:
             request = _Pending(name, SCHEMA.messages[name].pack(**fields))
             size = len(framing.encode(0, 0, request.body))
             while pending and (len(pending) >= max_frames or in_flight + size > budget):
-                reply = self._next_reply(pending, last_reply_at)
+                reply = self._next_reply(pending, last_reply_at, retries)
                 in_flight -= reply.request_wire_bytes
                 last_reply_at = reply.sent_at + reply.rtt_s
                 yield reply
@@ -255,7 +267,7 @@ class Link:
             pending.append(request)
             in_flight += request.wire_bytes
         while pending:
-            reply = self._next_reply(pending, last_reply_at)
+            reply = self._next_reply(pending, last_reply_at, retries)
             last_reply_at = reply.sent_at + reply.rtt_s
             yield reply
 
@@ -264,8 +276,11 @@ class Link:
         wire, request.sent_at = self._send(request.name, request.seq, request.body)
         request.wire_bytes = len(wire)
 
-    def _next_reply(self, pending: deque[_Pending], last_reply_at: float) -> Reply:
-        for attempt in range(self.retries + 1):
+    def _next_reply(
+        self, pending: deque[_Pending], last_reply_at: float, retries: int | None
+    ) -> Reply:
+        retries = self.retries if retries is None else retries
+        for attempt in range(retries + 1):
             try:
                 reply = self._await(pending[0], pending, last_reply_at)
                 pending.popleft()
@@ -273,7 +288,7 @@ class Link:
             except (BoardReset, BoardError):
                 raise
             except LinkError:
-                if attempt == self.retries or any(p.name not in _RETRYABLE for p in pending):
+                if attempt == retries or any(p.name not in _RETRYABLE for p in pending):
                     raise
             self.retried += 1
             time.sleep(min(_RETRY_BACKOFF_S[0] * 2**attempt, _RETRY_BACKOFF_S[1]))
@@ -318,10 +333,10 @@ class Link:
             f"{': ' + self.decoder.last_error if self.decoder.last_error else ''})"
         )
 
-    def request(self, name: str, **fields: Any) -> Reply:
+    def request(self, name: str, *, retries: int | None = None, **fields: Any) -> Reply:
         """One request, stop-and-wait; sent again after a loss if it is retryable (a SAMPLE
         is: the board answers a repeat from its RESULT cache without stepping again)."""
-        return next(self.pipeline([(name, fields)], window=1))
+        return next(self.pipeline([(name, fields)], window=1, retries=retries))
 
     # -- the protocol's verbs --------------------------------------------
 

@@ -26,7 +26,7 @@ from rich.progress import BarColumn, Progress, ProgressColumn, Task, TextColumn,
 from rich.text import Text
 
 from vehil import plants, record
-from vehil.boards import Board, make_board, open_board
+from vehil.boards import Board, BoardOptions, make_board, open_board
 from vehil.errors import BoardError, BoardReset, BoardStartError, LinkError, VehilError
 from vehil.link import BoardInfo, Link, Reply
 from vehil.logs import trace_from_log
@@ -394,7 +394,8 @@ def run(
     source = _source(scenario)
     spec = scenario.estimator
     n_out = len(spec.outputs)
-    target = board if isinstance(board, Board) else make_board(board, timeout_s=timeout_s)
+    options = BoardOptions(timeout_s=timeout_s)
+    target = board if isinstance(board, Board) else make_board(board, options)
     board_name = board if isinstance(board, str) else target.name
     needs_native = scenario.mode == "FIXED" and any(
         t.bit_exact for t in scenario.tolerances.values()

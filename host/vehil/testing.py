@@ -23,7 +23,7 @@ from typing import Any
 import pytest
 from rich.console import Console
 
-from vehil.boards import open_board
+from vehil.boards import BoardOptions, open_board
 from vehil.compare import Figures
 from vehil.link import Link
 
@@ -65,7 +65,7 @@ def vehil_board_name(request: pytest.FixtureRequest) -> str:
 @pytest.fixture
 def board(vehil_board_name: str) -> Iterator[Link]:
     """A started board with its link open and INFO read; stopped after the test."""
-    with open_board(vehil_board_name, timeout_s=3.0) as link:
+    with open_board(vehil_board_name, BoardOptions(timeout_s=3.0)) as link:
         yield link
 
 

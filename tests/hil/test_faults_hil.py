@@ -4,7 +4,7 @@ import random
 
 import pytest
 
-from vehil.boards import open_board
+from vehil.boards import BoardOptions, open_board
 from vehil.errors import LinkError
 from vehil.faults_report import measure
 
@@ -42,7 +42,7 @@ def _answers_again(link, attempts: int = 40) -> bool:  # noqa: ANN001
 
 @pytest.mark.parametrize("board", ["simavr", "qemu"])
 def test_a_storm_of_garbage_and_malformed_frames_leaves_the_board_answering(board) -> None:  # noqa: ANN001
-    with open_board(board, timeout_s=1.0) as link:
+    with open_board(board, BoardOptions(timeout_s=1.0)) as link:
         before = link.stats()
         rng = random.Random(11)
         link.port.write(bytes(rng.randrange(256) for _ in range(1000)))
@@ -70,7 +70,7 @@ def test_a_board_reset_mid_run_is_survived_and_changes_no_output(board, duration
 
     sc = dataclasses.replace(scenario.load("mixed"), duration=duration)
     n = int(duration / sc.sample_time)
-    broken = make_board(board, faults=f"reboot_after={n // 2}")
+    broken = make_board(board, BoardOptions(faults=f"reboot_after={n // 2}"))
     run = runner.run(sc, broken, console=Console(quiet=True))
     assert run.ended == "completed" and run.done == n
     assert len(run.resumes) == 1 and 0 < run.resumes[0].at_sample < n

@@ -12,6 +12,7 @@ import serial
 from rich.console import Console
 
 from vehil import compare, flash, runner, scenario
+from vehil.boards import BoardOptions
 from vehil.boards.simavr import SimavrBootloaderBoard
 from vehil.cli import main
 from vehil.errors import NoPort, VerifyMismatch, WrongSignature
@@ -38,7 +39,7 @@ def flashed_once(image: Path, tmp_path_factory) -> Flashed:  # noqa: ANN001
     """The firmware flashed through the bootloader, once for the module: what avrdude
     did, the flash image the board left, and the INFO the firmware then sent."""
     flash_bin = tmp_path_factory.mktemp("board") / "flash.bin"
-    board = SimavrBootloaderBoard(flash_image=flash_bin, timeout_s=3.0)
+    board = SimavrBootloaderBoard(BoardOptions(timeout_s=3.0), flash_image=flash_bin)
     with flash.flashed(board, image) as (result, link):
         assert link.info is not None
         return result, flash_bin, {"info": link.info}
@@ -78,7 +79,7 @@ def test_flash_through_the_bootloader_then_the_flashed_firmware_runs_a_scenario(
     assert written[:4] != b"\xff\xff\xff\xff" and len(written) == 256 * 1024
     assert written[0x3E000:0x3E004].hex().upper() in boot
     sine = dataclasses.replace(scenario.load("sine"), duration=2.0)
-    board = SimavrBootloaderBoard(flash_image=flash_bin, timeout_s=3.0)
+    board = SimavrBootloaderBoard(BoardOptions(timeout_s=3.0), flash_image=flash_bin)
     run = runner.run(sine, board, recording=tmp_path / "run.arrow", console=Console(quiet=True))
     assert run.error is None and run.done == 1000
     assert compare.evaluate(compare.series_from_run(run)).passed
@@ -90,7 +91,7 @@ def test_a_corrupted_image_fails_verification_naming_address_expected_and_got(
     bad = tmp_path / "corrupted.hex"
     address = 0x1234
     original = _flip_byte(image, bad, address)
-    board = SimavrBootloaderBoard(flash_image=None, timeout_s=3.0)
+    board = SimavrBootloaderBoard(BoardOptions(timeout_s=3.0), flash_image=None)
     # Writes the corrupted image (which verifies against itself), then compares the
     # flash with the good one.
     with pytest.raises(VerifyMismatch) as caught, flash.flashed(board, bad, verify_with=image):
@@ -102,7 +103,7 @@ def test_a_corrupted_image_fails_verification_naming_address_expected_and_got(
 
 
 def test_a_chip_that_is_not_the_part_is_refused_with_both_signatures(image: Path) -> None:
-    board = SimavrBootloaderBoard(flash_image=None, timeout_s=3.0)
+    board = SimavrBootloaderBoard(BoardOptions(timeout_s=3.0), flash_image=None)
     with pytest.raises(WrongSignature) as caught, flash.flashed(board, image, part="m1280"):
         pass
     assert (caught.value.expected, caught.value.got) == ("0x1e9703", "0x1e9801")

@@ -9,7 +9,7 @@ import struct
 
 import pytest
 
-from vehil.boards import open_board
+from vehil.boards import BoardOptions, open_board
 from vehil.build.budget import DEEPEST_SHIPPED_STACK, USER_ESTIMATOR_RAM
 from vehil.errors import BoardError
 from vehil.ping import run_ping
@@ -22,7 +22,7 @@ BOARDS = ["simavr", "qemu"]
 
 @pytest.fixture(scope="module", params=BOARDS)
 def link(request, built):  # noqa: ANN001, ANN201
-    with open_board(request.param, timeout_s=3.0) as link:
+    with open_board(request.param, BoardOptions(timeout_s=3.0)) as link:
         link.board_name = request.param
         yield link
 

@@ -14,7 +14,7 @@ import time
 
 import pytest
 
-from vehil.boards import make_board
+from vehil.boards import BoardOptions, make_board
 from vehil.errors import LinkError
 
 pytestmark = pytest.mark.hil
@@ -23,12 +23,10 @@ STALL_S = 4.5  # long enough for more than 255 resends at a 0.1 s timeout
 
 
 def test_no_old_result_is_taken_after_a_stall_and_many_resends(built) -> None:  # noqa: ANN001
-    board = make_board("simavr", timeout_s=2.0)
+    board = make_board("simavr", BoardOptions(timeout_s=0.1))
     with board.session() as link:
         assert board.process is not None
         pid = board.process.proc.pid
-        link.timeout_s = 0.1
-        link.retries = 20
         link.configure("passthrough", "F32")
 
         def stall() -> None:
@@ -42,7 +40,9 @@ def test_no_old_result_is_taken_after_a_stall_and_many_resends(built) -> None:  
         wrong = taken = 0
         try:
             inputs = (struct.pack("<4f", k, k, k, k) for k in range(3000))
-            for k, reply in enumerate(link.pipeline(("SAMPLE", {"inputs": x}) for x in inputs)):
+            for k, reply in enumerate(
+                link.pipeline((("SAMPLE", {"inputs": x}) for x in inputs), retries=20)
+            ):
                 wrong += reply.fields()["outputs"] != struct.pack("<4f", k, k, k, k)
                 taken += 1
         except LinkError:

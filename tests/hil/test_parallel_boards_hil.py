@@ -10,7 +10,7 @@ import time
 
 import pytest
 
-from vehil.boards import open_board
+from vehil.boards import BoardOptions, open_board
 
 pytestmark = pytest.mark.hil
 
@@ -36,7 +36,7 @@ def test_two_boards_at_once_each_echo_only_their_own_frames(built) -> None:  # n
 
     def drive(tag: str) -> None:
         try:
-            with open_board("simavr", timeout_s=5.0) as link:
+            with open_board("simavr", BoardOptions(timeout_s=5.0)) as link:
                 results[tag] = {"port": link.port.port, **_tagged_pings(link, tag.encode())}
         except BaseException as exc:  # reported in the main thread
             errors.append(exc)

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from vehil import record, runner, scenario
+from vehil.boards import BoardOptions
 from vehil.boards.simavr import SimavrBoard
 
 pytestmark = pytest.mark.hil
@@ -49,7 +50,7 @@ def test_real_time_pacing_holds_the_sample_rate(run_scenario) -> None:  # noqa: 
 
 
 def test_a_board_that_dies_mid_run_fails_the_run_and_keeps_the_recording(tmp_path) -> None:  # noqa: ANN001
-    board = SimavrBoard(timeout_s=0.5)
+    board = SimavrBoard(BoardOptions(timeout_s=0.5))
     sc = scenario.load("sine")
 
     def kill_when_running() -> None:

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import pytest
 
-from vehil.boards import open_board
+from vehil.boards import BoardOptions, SimavrOptions, open_board
 from vehil.errors import BoardError
 from vehil.protocol import frame
 
@@ -70,7 +70,7 @@ def _tx_frames(vcd: Path) -> list[list[int]]:
 def test_simavr_bit_time_is_the_requested_baud_at_every_accepted_rate(built, tmp_path) -> None:
     vcd = tmp_path / "uart.vcd"
     first_pong: dict[int, int] = {}  # baud -> index of its first PONG among the board's frames
-    with open_board("simavr", vcd=vcd, timeout_s=5.0) as link:
+    with open_board("simavr", BoardOptions(timeout_s=5.0), SimavrOptions(vcd=vcd)) as link:
         for baud in STANDARD_BAUDS:
             sent = link.stats()["tx_frames"]  # frames before this STATS reply
             try:

@@ -10,7 +10,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from vehil.boards import open_board
+from vehil.boards import BoardOptions, open_board
 from vehil.protocol import frame
 from vehil.protocol.schema import SCHEMA
 
@@ -19,7 +19,7 @@ PING = SCHEMA.messages["PING"].type
 
 @pytest.fixture(scope="module")
 def link(built):  # noqa: ANN001, ANN201
-    with open_board("native", timeout_s=0.2) as link:
+    with open_board("native", BoardOptions(timeout_s=0.2)) as link:
         yield link
 
 

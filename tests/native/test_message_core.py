@@ -8,7 +8,7 @@ import struct
 
 import pytest
 
-from vehil.boards import open_board
+from vehil.boards import BoardOptions, open_board
 from vehil.errors import BoardError, LinkError
 from vehil.protocol import frame
 from vehil.protocol.schema import SCHEMA
@@ -16,7 +16,7 @@ from vehil.protocol.schema import SCHEMA
 
 @pytest.fixture
 def link(built):  # noqa: ANN001, ANN201
-    with open_board("native", timeout_s=0.2) as link:
+    with open_board("native", BoardOptions(timeout_s=0.2)) as link:
         yield link
 
 
@@ -118,9 +118,9 @@ def test_corrupt_and_oversize_frames_are_counted_and_the_link_recovers(link) -> 
     link.port.write(bytes(bad_crc))
     link.port.write(b"\x07" * (frame.WIRE_MAX + 10) + b"\x00")  # no frame is that long
     link.port.write(b"\x02\x00")  # a COBS code that promises more than is there
-    link.retries = 0  # see the board's own report of the long frame, not a retry past it
     with pytest.raises(LinkError, match="OVERSIZE"):
-        link.request("PING", payload=b"x")
+        # no retry: see the board's own report of the long frame, not a retry past it
+        link.request("PING", retries=0, payload=b"x")
     assert link.request("PING", payload=b"after").fields()["payload"] == b"after"
     stats = link.stats()
     assert stats["crc_errors"] == 1

@@ -79,11 +79,13 @@ def test_a_closed_loop_survives_a_board_reset_with_the_same_outputs(built) -> No
     answered, each answer checked, and the loop goes on from where it was."""
     from rich.console import Console
 
-    from vehil.boards import make_board
+    from vehil.boards import BoardOptions, make_board
 
     sc = dataclasses.replace(scenario.load("s5-iso-active-eso"), duration=5.0)
     broken = runner.run(
-        sc, make_board("native", faults="reboot_after=300"), console=Console(quiet=True)
+        sc,
+        make_board("native", BoardOptions(faults="reboot_after=300")),
+        console=Console(quiet=True),
     )
     clean = runner.run(sc, "native", console=Console(quiet=True))
     assert broken.ended == "completed" and [r.at_sample for r in broken.resumes] == [299]

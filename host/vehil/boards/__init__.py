@@ -9,15 +9,16 @@ on errors and Ctrl-C too.
 
 from __future__ import annotations
 
-from vehil.boards.base import Board
+from vehil.boards.base import Board, BoardOptions, ports_seen
 from vehil.boards.native import NativeBoard
 from vehil.boards.qemu import QemuBoard, QemuEvBoard
-from vehil.boards.serialport import SerialBoard, ports_seen
+from vehil.boards.serialport import SerialBoard
 from vehil.boards.simavr import (
     SimavrBoard,
     SimavrBootloaderBoard,
     SimavrEvBoard,
     SimavrMegaBoard,
+    SimavrOptions,
     SimavrRealtimeBoard,
 )
 from vehil.errors import NoPort
@@ -39,19 +40,39 @@ def _looks_like_a_port(spec: str) -> bool:
     return "/" in spec or "://" in spec or spec.upper().startswith("COM") or spec.startswith("\\")
 
 
-def make_board(spec: str, **options: object) -> Board:
-    if spec in VIRTUAL_BOARDS:
-        return VIRTUAL_BOARDS[spec](**options)  # type: ignore[arg-type]
+def make_board(
+    spec: str, options: BoardOptions | None = None, simavr: SimavrOptions | None = None
+) -> Board:
+    """The board SPEC names; `simavr` options only for a simavr board."""
+    cls = VIRTUAL_BOARDS.get(spec)
+    if simavr is not None:
+        if cls is None or not issubclass(cls, SimavrBoard):
+            raise NoPort(f"simavr options (trace, gdb, profile) need a simavr board, not {spec!r}")
+        return cls(options, simavr)
+    if cls is not None:
+        return cls(options)
     if not _looks_like_a_port(spec):
         raise NoPort(
             f"no board {spec!r}: give one of {', '.join(VIRTUAL_BOARDS)}, or a serial port "
             f"or pyserial URL (ports seen: {ports_seen()})"
         )
-    return SerialBoard(spec, **options)  # type: ignore[arg-type]
+    return SerialBoard(spec, options)
 
 
-def open_board(spec: str = DEFAULT_BOARD, **options: object):  # noqa: ANN201
-    return make_board(spec, **options).session()
+def open_board(
+    spec: str = DEFAULT_BOARD,
+    options: BoardOptions | None = None,
+    simavr: SimavrOptions | None = None,
+):  # noqa: ANN201
+    return make_board(spec, options, simavr).session()
 
 
-__all__ = ["Board", "DEFAULT_BOARD", "VIRTUAL_BOARDS", "make_board", "open_board"]
+__all__ = [
+    "Board",
+    "BoardOptions",
+    "DEFAULT_BOARD",
+    "SimavrOptions",
+    "VIRTUAL_BOARDS",
+    "make_board",
+    "open_board",
+]

@@ -3,15 +3,53 @@
 from __future__ import annotations
 
 import contextlib
+import errno
+import time
 from collections.abc import Iterator
+from dataclasses import dataclass
 
 import serial
+from serial.tools import list_ports
 
 import vehil.transports  # noqa: F401  (registers native://)
-from vehil.errors import BoardStartError, BoardTimeout, LinkError
+from vehil.errors import BoardStartError, BoardTimeout, LinkError, NoPort, PortBusy
 from vehil.link import Link
 
 DEFAULT_BAUD = 1_000_000
+_RETRY_OPEN_S = 0.02
+
+
+@dataclass(frozen=True, kw_only=True)
+class BoardOptions:
+    """What any board takes: the link's baud and reply timeout, and faults to inject."""
+
+    baud: int = DEFAULT_BAUD
+    timeout_s: float = 2.0
+    faults: str | None = None  # a faults:// spec, e.g. "drop=1e-3,seed=1"; armed once up
+
+
+def ports_seen() -> str:
+    ports = [p.device for p in list_ports.comports()]
+    return ", ".join(ports) if ports else "none"
+
+
+def port_error(url: str, exc: serial.SerialException) -> BoardStartError:
+    """What a port that does not open means, and what to do about it."""
+    cause = exc.__context__ if isinstance(exc.__context__, OSError) else None
+    code = getattr(cause, "errno", None) or getattr(exc, "errno", None)
+    if code == errno.ENOENT:
+        return NoPort(f"no serial port {url}; ports seen: {ports_seen()}")
+    if code in (errno.EBUSY, errno.EAGAIN) or "lock" in str(exc):
+        return PortBusy(
+            f"{url} is busy: another program (a serial monitor, avrdude, "
+            "another vehil) has it open; close that and retry"
+        )
+    if code == errno.EACCES:
+        return BoardStartError(
+            f"no permission to open {url}: add yourself to the port's group "
+            "(`sudo usermod -aG dialout $USER`, then log in again)"
+        )
+    return BoardStartError(f"cannot open {url}: {exc}")
 
 
 class Board:
@@ -21,24 +59,26 @@ class Board:
     ready_timeout_s = 10.0
     max_frames_in_flight: int | None = None  # None: as many as the board's RX buffer holds
     flashable = False  # has a bootloader that avrdude can program (`vehil flash`)
+    exclusive = False  # open the port for us alone (a real device)
+    connect_timeout_s = 0.0  # how long a port that does not open yet is tried again
 
-    def __init__(
-        self, *, baud: int = DEFAULT_BAUD, timeout_s: float = 2.0, faults: str | None = None
-    ):
-        self.baud = baud
-        self.timeout_s = timeout_s
-        self.faults = faults  # a faults:// spec, e.g. "drop=1e-3,seed=1"; armed once up
+    def __init__(self, options: BoardOptions | None = None):
+        self.options = options or BoardOptions()
+
+    @property
+    def baud(self) -> int:
+        return self.options.baud
 
     def port_url(self, url: str) -> str:
         """The URL to open: the board's own, or wrapped in a fault injector."""
-        if not self.faults:
+        if not self.options.faults:
             return url
         from vehil.transports.protocol_faults import wrap_url
 
         try:
-            return wrap_url(url, self.faults)
+            return wrap_url(url, self.options.faults)
         except ValueError as exc:
-            raise BoardStartError(f"--faults {self.faults!r}: {exc}") from None
+            raise BoardStartError(f"--faults {self.options.faults!r}: {exc}") from None
 
     def start(self) -> str:
         """Brings the board up; returns the pyserial URL to reach it."""
@@ -51,10 +91,25 @@ class Board:
         """Before avrdude runs: make sure the bootloader is what answers."""
 
     def open_port(self, url: str) -> serial.SerialBase:
-        try:
-            return serial.serial_for_url(self.port_url(url), baudrate=self.baud, timeout=0.02)
-        except serial.SerialException as exc:
-            raise BoardStartError(f"cannot open {self.name} at {url}: {exc}") from None
+        """Opens the board's port, tried again for `connect_timeout_s` (a board that is
+        still starting, or whose port comes back after a reset)."""
+        deadline = time.monotonic() + self.connect_timeout_s
+        while True:
+            try:
+                return serial.serial_for_url(
+                    self.port_url(url), baudrate=self.baud, timeout=0.02, exclusive=self.exclusive
+                )
+            except serial.SerialException as exc:
+                self.check_alive()
+                if time.monotonic() >= deadline:
+                    raise self.port_error(url, exc) from None
+            time.sleep(_RETRY_OPEN_S)
+
+    def check_alive(self) -> None:
+        """Raises if the board went away for good while its port was being opened."""
+
+    def port_error(self, url: str, exc: serial.SerialException) -> BoardStartError:
+        return port_error(url, exc)
 
     def wait_ready(self, link: Link) -> None:
         try:
@@ -72,9 +127,11 @@ class Board:
         try:
             if url is None:
                 url = self.start()
-            link = Link(self.open_port(url), timeout_s=self.timeout_s)
-            if self.max_frames_in_flight is not None:
-                link.max_frames = self.max_frames_in_flight
+            link = Link(
+                self.open_port(url),
+                timeout_s=self.options.timeout_s,
+                max_frames=self.max_frames_in_flight,
+            )
             try:
                 self.wait_ready(link)
                 link.hello()

@@ -10,6 +10,9 @@ import subprocess
 import tempfile
 import time
 
+import serial
+
+from vehil.boards.base import Board, BoardOptions
 from vehil.errors import BoardStartError
 
 _PR_SET_PDEATHSIG = 1
@@ -87,3 +90,35 @@ class BoardProcess:
         if self.proc.stdout is not None:
             self.proc.stdout.close()
         self._stderr.close()
+
+
+class ProcessBoard(Board):
+    """A board that is a child process (simavr's bridge, QEMU): its output quoted in
+    errors, and stopped with the session."""
+
+    def __init__(self, options: BoardOptions | None = None):
+        super().__init__(options)
+        self.process: BoardProcess | None = None
+
+    def check_alive(self) -> None:
+        if self.process is not None and not self.process.alive():
+            raise self.process.failure("exited before accepting a connection")
+
+    def port_error(self, url: str, exc: serial.SerialException) -> BoardStartError:
+        if self.process is None:
+            return super().port_error(url, exc)
+        return self.process.failure(
+            f"did not accept a connection on {url} within {self.connect_timeout_s:.0f} s ({exc})"
+        )
+
+    def diagnostics(self) -> str:
+        if self.process is None:
+            return ""
+        tail = self.process.stderr_tail()
+        state = "running" if self.process.alive() else f"exited ({self.process.proc.returncode})"
+        return f"\n{self.name} is {state}" + (f"; it said:\n{tail}" if tail else "")
+
+    def stop(self) -> None:
+        if self.process is not None:
+            self.process.stop()
+            self.process = None

@@ -4,13 +4,8 @@ from __future__ import annotations
 
 import shutil
 import socket
-import time
-from pathlib import Path
 
-import serial
-
-from vehil.boards.base import Board
-from vehil.boards.process import BoardProcess
+from vehil.boards.process import BoardProcess, ProcessBoard
 from vehil.errors import BoardStartError, BuildMissing
 from vehil.paths import FIRMWARE_ELF, FIRMWARE_EV_ELF
 
@@ -21,18 +16,14 @@ def _free_port() -> int:
         return int(s.getsockname()[1])
 
 
-class QemuBoard(Board):
+class QemuBoard(ProcessBoard):
     name = "qemu"
+    elf = FIRMWARE_ELF
     # QEMU's USART takes one byte at a time with back-pressure: 8 frames in flight
     # move ~3x the samples of stop-and-wait (400-580/s against 175/s on `mixed`); with
     # the whole RX buffer in flight it is ~2x slower again.
     max_frames_in_flight = 8
-    connect_timeout_s = 10.0
-
-    def __init__(self, *, elf: Path = FIRMWARE_ELF, **options: object):
-        super().__init__(**options)  # type: ignore[arg-type]
-        self.elf = elf
-        self.process: BoardProcess | None = None
+    connect_timeout_s = 10.0  # QEMU listens a moment after it starts
 
     def start(self) -> str:
         exe = shutil.which("qemu-system-avr")
@@ -59,43 +50,13 @@ class QemuBoard(Board):
                 "-serial",
                 f"tcp:127.0.0.1:{port},server=on,wait=on,nodelay=on",
             ],
-            "qemu",
+            self.name,
         )
         return f"tcp://127.0.0.1:{port}"  # keeps the boot INFO: see transports/protocol_tcp.py
-
-    def open_port(self, url: str) -> serial.SerialBase:
-        """QEMU listens a moment after it starts: retry until it does, or dies."""
-        assert self.process is not None
-        deadline = time.monotonic() + self.connect_timeout_s
-        while True:
-            try:
-                return serial.serial_for_url(self.port_url(url), baudrate=self.baud, timeout=0.02)
-            except serial.SerialException:
-                if not self.process.alive():
-                    raise self.process.failure("exited before accepting a connection") from None
-                if time.monotonic() > deadline:
-                    raise self.process.failure(
-                        f"did not accept a connection on {url} "
-                        f"within {self.connect_timeout_s:.0f} s"
-                    ) from None
-                time.sleep(0.02)
-
-    def diagnostics(self) -> str:
-        if self.process is None:
-            return ""
-        tail = self.process.stderr_tail()
-        return f"\nqemu said:\n{tail}" if tail else ""
-
-    def stop(self) -> None:
-        if self.process is not None:
-            self.process.stop()
-            self.process = None
 
 
 class QemuEvBoard(QemuBoard):
     """QEMU running the image with seed 001's filters (env offline-ev)."""
 
     name = "qemu-ev"
-
-    def __init__(self, *, elf: Path = FIRMWARE_EV_ELF, **options: object):
-        super().__init__(elf=elf, **options)  # type: ignore[arg-type]
+    elf = FIRMWARE_EV_ELF

@@ -4,10 +4,12 @@
 
 from __future__ import annotations
 
+import dataclasses
+from dataclasses import dataclass
 from pathlib import Path
 
-from vehil.boards.base import Board
-from vehil.boards.process import BoardProcess
+from vehil.boards.base import BoardOptions
+from vehil.boards.process import BoardProcess, ProcessBoard
 from vehil.errors import BoardTimeout, BuildMissing
 from vehil.link import Link
 from vehil.paths import (
@@ -21,26 +23,34 @@ from vehil.paths import (
 _READY_PREFIX = "vehil-simavr: listening url="
 
 
-class SimavrBoard(Board):
-    name = "simavr"
+@dataclass(frozen=True)
+class SimavrOptions:
+    """What only the simavr bridge takes (see sim/options.c)."""
 
-    def __init__(
-        self,
-        *,
-        elf: Path = FIRMWARE_ELF,
-        realtime: bool = False,
-        vcd: Path | None = None,
-        gdb_port: int | None = None,
-        profile: list[str] | None = None,
-        **options: object,
-    ):
-        super().__init__(**options)  # type: ignore[arg-type]
-        self.elf = elf
-        self.extra = (["--realtime"] if realtime else []) + (["--vcd", str(vcd)] if vcd else [])
-        if gdb_port is not None:
-            self.extra += ["--gdb", str(gdb_port)]
-        self.extra += profile or []  # the bridge's --profile options (vehil.fnprofile)
-        self.process: BoardProcess | None = None
+    realtime: bool = False  # held to the chip's real time
+    vcd: Path | None = None  # a VCD trace of the UART and the pins
+    gdb_port: int | None = None  # simavr's gdb server, waits for gdb
+    profile: tuple[str, ...] = ()  # the bridge's --profile options (vehil.fnprofile)
+
+    def bridge_options(self) -> list[str]:
+        args = ["--realtime"] if self.realtime else []
+        if self.vcd:
+            args += ["--vcd", str(self.vcd)]
+        if self.gdb_port is not None:
+            args += ["--gdb", str(self.gdb_port)]
+        return args + list(self.profile)
+
+
+class SimavrBoard(ProcessBoard):
+    name = "simavr"
+    elf = FIRMWARE_ELF
+    realtime = False  # a subclass that always runs in real time
+
+    def __init__(self, options: BoardOptions | None = None, simavr: SimavrOptions | None = None):
+        super().__init__(options)
+        self.simavr = simavr or SimavrOptions()
+        if self.realtime:
+            self.simavr = dataclasses.replace(self.simavr, realtime=True)
 
     def bridge_args(self) -> list[str]:
         """What the bridge runs; checks that it is there."""
@@ -51,24 +61,12 @@ class SimavrBoard(Board):
     def start(self) -> str:
         if not SIMAVR_BRIDGE.exists():
             raise BuildMissing(f"simavr bridge {SIMAVR_BRIDGE} is missing: run `vehil build`")
-        argv = [str(SIMAVR_BRIDGE), *self.extra, *self.bridge_args()]
+        argv = [str(SIMAVR_BRIDGE), *self.simavr.bridge_options(), *self.bridge_args()]
         self.process = BoardProcess(argv, self.name)
         line = self.process.read_line(timeout_s=10.0)
         if not line.startswith(_READY_PREFIX):
             raise self.process.failure(f"printed {line!r} instead of its URL")
         return line[len(_READY_PREFIX) :]
-
-    def diagnostics(self) -> str:
-        if self.process is None:
-            return ""
-        tail = self.process.stderr_tail()
-        state = "running" if self.process.alive() else f"exited ({self.process.proc.returncode})"
-        return f"\nsimavr is {state}" + (f"; it said:\n{tail}" if tail else "")
-
-    def stop(self) -> None:
-        if self.process is not None:
-            self.process.stop()
-            self.process = None
 
 
 class SimavrRealtimeBoard(SimavrBoard):
@@ -76,9 +74,7 @@ class SimavrRealtimeBoard(SimavrBoard):
     does: the board for latency and loop-rate figures (the default runs ahead)."""
 
     name = "simavr-realtime"
-
-    def __init__(self, **options: object):
-        super().__init__(realtime=True, **options)  # type: ignore[arg-type]
+    realtime = True
 
 
 class SimavrMegaBoard(SimavrRealtimeBoard):
@@ -97,9 +93,7 @@ class SimavrEvBoard(SimavrBoard):
     default image leaves out: none keeps a 10 ms step."""
 
     name = "simavr-ev"
-
-    def __init__(self, *, elf: Path = FIRMWARE_EV_ELF, **options: object):
-        super().__init__(elf=elf, **options)  # type: ignore[arg-type]
+    elf = FIRMWARE_EV_ELF
 
 
 class SimavrBootloaderBoard(SimavrBoard):
@@ -111,15 +105,16 @@ class SimavrBootloaderBoard(SimavrBoard):
     name = "simavr-bootloader"
     flashable = True
 
+    bootloader = MEGA_BOOTLOADER_HEX
+
     def __init__(
         self,
+        options: BoardOptions | None = None,
+        simavr: SimavrOptions | None = None,
         *,
-        bootloader: Path = MEGA_BOOTLOADER_HEX,
         flash_image: Path | None = SIMAVR_FLASH_IMAGE,
-        **options: object,
     ):
-        super().__init__(**options)  # type: ignore[arg-type]
-        self.bootloader = bootloader
+        super().__init__(options, simavr)
         self.flash_image = flash_image
 
     def bridge_args(self) -> list[str]:

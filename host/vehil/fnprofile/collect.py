@@ -18,7 +18,7 @@ from typing import Any
 
 from rich.console import Console
 
-from vehil.boards import VIRTUAL_BOARDS, Board, make_board
+from vehil.boards import VIRTUAL_BOARDS, Board, BoardOptions, SimavrOptions, make_board
 from vehil.boards.simavr import SimavrBoard, SimavrBootloaderBoard
 from vehil.errors import VehilError
 from vehil.fnprofile.elfmap import ElfMap, instruction_words
@@ -78,8 +78,8 @@ class Session:
             args += ["--profile-window", ",".join(f"{lo:x}-{hi:x}" for lo, hi in ranges)]
         return args
 
-    def board(self, name: str, **options: Any) -> Board:
-        return make_board(name, profile=self.bridge_args(), **options)
+    def board(self, name: str, options: BoardOptions | None = None) -> Board:
+        return make_board(name, options, SimavrOptions(profile=tuple(self.bridge_args())))
 
     def read(self) -> Profile:
         if not self.output.exists():
@@ -116,7 +116,7 @@ def scenario_steps(
     from vehil import runner
 
     s = session(board, per, folder)
-    target = s.board(board, timeout_s=timeout_s)
+    target = s.board(board, BoardOptions(timeout_s=timeout_s))
     rec = s.folder / "run.arrow"
     run = runner.run(
         sc,
@@ -155,7 +155,7 @@ def pings(
     from vehil.ping import run_ping
 
     s = session(board, what, folder)
-    target = s.board(board, timeout_s=timeout_s)
+    target = s.board(board, BoardOptions(timeout_s=timeout_s))
     with target.session() as link:
         run_ping(link, count=3, size=size)
         _cut(target)  # what the boot and the warm-up did is segment 0

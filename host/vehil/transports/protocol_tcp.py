@@ -29,7 +29,5 @@ class Serial(protocol_socket.Serial):
     def from_url(self, url: str) -> tuple[str, int]:
         scheme, sep, rest = url.partition("://")
         if scheme != "tcp" or not sep:
-            raise protocol_socket.SerialException(
-                f"expected tcp://HOST:PORT, got {url!r}"
-            )
+            raise protocol_socket.SerialException(f"expected tcp://HOST:PORT, got {url!r}")
         return super().from_url("socket://" + rest)  # type: ignore[no-any-return]

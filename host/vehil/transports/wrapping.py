@@ -23,7 +23,9 @@ class WrappingSerial(SerialBase):
         return text[len(prefix) :]
 
     def _open_inner(self, url: str, timeout: float | None) -> None:
-        self._inner = serial.serial_for_url(url, baudrate=self._baudrate, timeout=timeout)
+        self._inner = serial.serial_for_url(
+            url, baudrate=self._baudrate, timeout=timeout, exclusive=self._exclusive
+        )
 
     def _require_open(self) -> serial.SerialBase:
         """The inner port; PortNotOpenError if this one is closed."""
