@@ -5,6 +5,12 @@ USB serial port, or the in-process native board), matches every reply to its
 request by sequence number, keeps no more bytes in flight than the board's RX
 buffer holds, and turns every gap, timeout and refusal into an exception:
 nothing is dropped silently.
+
+"In flight" counts every copy of a request sent, resends included, until the board
+is known to have taken it out of its RX buffer: a reply to that copy or to one sent
+after it (the board reads its input in order). A board that stalls for seconds keeps
+the copies it has not read; resending them all on each timeout would queue several
+buffers' worth behind them and overrun the buffer when it wakes.
 """
 
 from __future__ import annotations
@@ -33,6 +39,8 @@ MAX_FRAMES_IN_FLIGHT = 32
 _RETRYABLE = frozenset({"HELLO", "PING", "GET_STATS", "GET_ESTIMATOR", "CONFIG", "SAMPLE"})
 _RETRY_BACKOFF_S = (0.01, 0.2)  # first wait, longest wait
 _READ_SLICE_S = 0.02
+# Before the board's INFO says how large its RX buffer is.
+_RX_BUFFER_UNKNOWN = 64
 
 
 @dataclass
@@ -41,14 +49,18 @@ class _Pending:
 
     name: str
     body: bytes
-    seq: int = 0
+    seq: int = 0  # 0: not (yet) sent under its current seq
     wire_bytes: int = 0
     sent_at: float = 0.0
 
+    def __post_init__(self) -> None:
+        self.wire_bytes = len(framing.encode(0, 0, self.body))  # whatever the seq
+
     def describe(self) -> str:
+        seq = f"seq {self.seq}" if self.seq else "(not sent: the board's RX buffer was full)"
         if self.name == "SAMPLE":  # its index leads the body
-            return f"SAMPLE seq {self.seq} (sample {int.from_bytes(self.body[:2], 'little')})"
-        return f"{self.name} seq {self.seq}"
+            return f"SAMPLE {seq} (sample {int.from_bytes(self.body[:2], 'little')})"
+        return f"{self.name} {seq}"
 
 
 @dataclass(frozen=True)
@@ -160,6 +172,12 @@ class Link:
         self.max_frames = max_frames or MAX_FRAMES_IN_FLIGHT  # a board may ask for fewer
         self.retried = 0
         self.sample_index = 0  # the next SAMPLE's index: 0 after CONFIG
+        # Copies sent that the board may not have read yet: (seq, wire bytes), oldest first.
+        self._unread: deque[tuple[int, int]] = deque()
+        self._unread_seqs: set[int] = set()
+        self.in_flight = 0  # their bytes: never more than the board's RX buffer
+        self.probes = 0  # empty PINGs sent to learn that the board has read its input
+        self._probe_seq = 0
         # Short reads, set once: changing a real port's timeout reconfigures the tty.
         self.port.timeout = _READ_SLICE_S
 
@@ -181,8 +199,39 @@ class Link:
                 raise LinkError(f"the connection to the board broke: {exc}") from None
             if data:
                 now = time.perf_counter()
-                self._inbox.extend((f, now) for f in self.decoder.feed(data))
+                for f in self.decoder.feed(data):
+                    self._read_up_to(f)
+                    self._inbox.append((f, now))
         return self._inbox.popleft()
+
+    # -- what the board's RX buffer holds -----------------------------------
+
+    @property
+    def rx_buffer(self) -> int:
+        return self.info.rx_buffer if self.info else _RX_BUFFER_UNKNOWN
+
+    def _fits(self, wire_bytes: int) -> bool:
+        return self.in_flight + wire_bytes <= self.rx_buffer
+
+    def _sent_copy(self, seq: int, wire_bytes: int) -> None:
+        self._unread.append((seq, wire_bytes))
+        self._unread_seqs.add(seq)
+        self.in_flight += wire_bytes
+
+    def _read_up_to(self, f: framing.Frame) -> None:
+        """A frame from the board: every copy sent up to the one it answers has been read."""
+        if f.seq == 0 and f.name == "INFO":  # rebooted: its RX buffer starts empty
+            self._unread.clear()
+            self._unread_seqs.clear()
+            self.in_flight = 0
+        if f.seq not in self._unread_seqs:
+            return
+        while self._unread:
+            seq, n = self._unread.popleft()
+            self._unread_seqs.discard(seq)
+            self.in_flight -= n
+            if seq == f.seq:
+                return
 
     def _send(self, name: str, seq: int, body: bytes) -> tuple[bytes, float]:
         type_code = SCHEMA.messages[name].type
@@ -245,10 +294,8 @@ class Link:
         link's); then BoardTimeout or LinkError names the request.
         Raises BoardError for an ERROR reply.
         """
-        budget = self.info.rx_buffer if self.info else 64
         max_frames = min(window or self.max_frames, self.max_frames)
         pending: deque[_Pending] = deque()
-        in_flight = 0
         last_reply_at = 0.0
         for name, fields in requests:
             if name == "SAMPLE" and "index" not in fields:
@@ -257,24 +304,48 @@ class Link:
             elif name == "CONFIG" or (name == "RESET" and fields.get("what") == 0):
                 self.sample_index = 0  # the board counts from 0 again
             request = _Pending(name, SCHEMA.messages[name].pack(**fields))
-            size = len(framing.encode(0, 0, request.body))
-            while pending and (len(pending) >= max_frames or in_flight + size > budget):
+            while pending and (
+                len(pending) >= max_frames
+                or pending[-1].seq == 0
+                or not self._fits(request.wire_bytes)
+            ):
                 reply = self._next_reply(pending, last_reply_at, retries)
-                in_flight -= reply.request_wire_bytes
                 last_reply_at = reply.sent_at + reply.rtt_s
                 yield reply
-            self._transmit(request)
             pending.append(request)
-            in_flight += request.wire_bytes
+            self._send_what_fits(pending)
         while pending:
             reply = self._next_reply(pending, last_reply_at, retries)
             last_reply_at = reply.sent_at + reply.rtt_s
             yield reply
 
+    def _send_what_fits(self, pending: deque[_Pending]) -> bool:
+        """Sends the requests not yet sent, in order, while the board's RX buffer has room
+        for them beside every copy it may not have read; False if none went."""
+        sent = False
+        for request in pending:
+            if request.seq:
+                continue
+            if not self._fits(request.wire_bytes):
+                break
+            self._transmit(request)
+            sent = True
+        return sent
+
+    def _probe(self) -> None:
+        """An empty PING, when nothing else fits: its reply says the board has read all
+        that was sent before it, lost or not, so the resends can go."""
+        wire_bytes = len(framing.encode(0, 0, b""))
+        if self._fits(wire_bytes) and self._probe_seq not in self._unread_seqs:
+            self._probe_seq = self._next_seq()
+            self._send("PING", self._probe_seq, b"")
+            self._sent_copy(self._probe_seq, wire_bytes)
+            self.probes += 1
+
     def _transmit(self, request: _Pending) -> None:
         request.seq = self._next_seq()
-        wire, request.sent_at = self._send(request.name, request.seq, request.body)
-        request.wire_bytes = len(wire)
+        _, request.sent_at = self._send(request.name, request.seq, request.body)
+        self._sent_copy(request.seq, request.wire_bytes)
 
     def _next_reply(
         self, pending: deque[_Pending], last_reply_at: float, retries: int | None
@@ -292,23 +363,32 @@ class Link:
                     raise
             self.retried += 1
             time.sleep(min(_RETRY_BACKOFF_S[0] * 2**attempt, _RETRY_BACKOFF_S[1]))
-            for p in pending:
-                self._transmit(p)
+            for p in pending:  # go back N: each goes again, under a new seq, as room allows
+                p.seq = 0
+            if not self._send_what_fits(pending):
+                self._probe()
             last_reply_at = 0.0
         raise AssertionError("unreachable")
 
     def _await(self, request: _Pending, pending: deque[_Pending], last_reply_at: float) -> Reply:
-        # Replies come in order: this one's clock starts when the previous one arrived.
-        deadline = max(request.sent_at, last_reply_at) + self.timeout_s
-        later_seqs = {p.seq for p in pending if p is not request}
         answer = SCHEMA.messages[request.name].reply
-        while (got := self._read_frame(deadline)) is not None:
+        waiting_since = time.perf_counter()
+        while True:
+            self._send_what_fits(pending)
+            # Replies come in order: this one's clock starts when it was sent and the
+            # previous one arrived; one not yet sent waits for room, as long.
+            if request.seq:
+                deadline = max(request.sent_at, last_reply_at) + self.timeout_s
+            else:
+                deadline = waiting_since + self.timeout_s
+            if (got := self._read_frame(deadline)) is None:
+                break
             f, arrived = got
-            if f.seq == request.seq and f.name not in (answer, "ERROR"):
+            if request.seq and f.seq == request.seq and f.name not in (answer, "ERROR"):
                 # Not an answer to this request: a frame with a borrowed seq (masquerade).
                 self.wrong_type_replies += 1
                 continue
-            if f.seq == request.seq:
+            if request.seq and f.seq == request.seq:
                 if f.name == "ERROR":
                     fields = f.fields()
                     raise BoardError(
@@ -321,11 +401,11 @@ class Link:
                 return Reply(f, request.name, request.sent_at, rtt, request.wire_bytes, f.wire_size)
             if f.seq == 0:
                 raise self._unsolicited(f)
-            if f.seq in later_seqs:
+            if any(p.seq == f.seq for p in pending if p is not request):
                 raise LinkError(
                     f"reply to {request.describe()} is missing: the reply to seq {f.seq} came first"
                 )
-            self.stale_replies += 1  # a reply to a request sent again since
+            self.stale_replies += 1  # a reply to a request sent again since, or to a probe
         raise BoardTimeout(
             f"no reply to {request.describe()} within {self.timeout_s:.2f} s "
             f"({len(pending) - 1} more requests in flight, "
