@@ -14,8 +14,8 @@ volatile uint8_t uart_tx_buf[UART_TX_SIZE];
 volatile uint8_t uart_tx_head; /* released bytes end here */
 volatile uint8_t uart_tx_tail; /* advanced by the UDRE interrupt */
 
-uint8_t uart_tx_write;  /* the next byte appended goes here */
-static uint8_t tx_held; /* the placeholder */
+uint8_t uart_tx_write; /* the next byte appended goes here */
+uint8_t uart_tx_held;  /* the placeholder */
 static uint32_t current_baud;
 
 int32_t uart_ubrr(uint32_t baud)
@@ -59,13 +59,13 @@ void uart_rx_release(uint8_t n) { uart_rx_tail = (uint8_t)(uart_rx_tail + n); }
 
 void uart_tx_open(void)
 {
-    tx_held = uart_tx_write;
+    uart_tx_held = uart_tx_write;
     uart_tx_put(0);
 }
 
 void uart_tx_close(uint8_t code)
 {
-    uart_tx_buf[tx_held] = code;
+    uart_tx_buf[uart_tx_held] = code;
     ATOMIC_BLOCK(ATOMIC_RESTORESTATE)
     {
         uart_tx_head = uart_tx_write;

@@ -24,6 +24,7 @@ void uart_tx_close(uint8_t code);
 extern volatile uint8_t uart_tx_buf[UART_TX_SIZE];
 extern volatile uint8_t uart_tx_tail;
 extern uint8_t uart_tx_write;
+extern uint8_t uart_tx_held; /* the placeholder's slot (frame_tx_avr.S moves it too) */
 
 static inline void uart_tx_put(uint8_t byte)
 {

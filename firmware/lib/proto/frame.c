@@ -100,25 +100,34 @@ uint8_t frame_rx_bytes(frame_rx_t *rx, const uint8_t *data, uint8_t len, frame_s
     return (uint8_t)(p - data);
 }
 
-/* One byte into the COBS encoder; returns the block's code so far. */
-static uint8_t tx_block_end(uint8_t code)
-{
-    port_tx_close(code);
-    port_tx_open();
-    return 1;
-}
+/* No COBS block reaches the 254 data bytes that would end it without a zero. */
+typedef char frame_blocks_end_at_zeros[FRAME_RAW_MAX < 254u ? 1 : -1];
 
-static inline uint8_t tx_put(uint8_t code, uint8_t byte)
+#if defined(__AVR__)
+/* firmware/src/frame_tx_avr.S: the loop below in assembly, straight into the UART's TX ring. */
+uint8_t frame_tx_run(uint32_t *crc, uint8_t code, const uint8_t *data, uint8_t n);
+#else
+/* n bytes into the TX buffer, COBS-encoded, the CRC run over them; returns the COBS
+ * code of the block so far. A zero byte ends the block. */
+static uint8_t frame_tx_run(uint32_t *crc, uint8_t code, const uint8_t *data, uint8_t n)
 {
-    if (code == 0xFFu) { /* a full block: it ends here without standing for a zero */
-        code = tx_block_end(0xFFu);
+    uint32_t c = *crc;
+    while (n-- > 0u) {
+        uint8_t byte = *data++;
+        c = crc32c_update(c, byte);
+        if (byte == 0) {
+            port_tx_close(code);
+            port_tx_open();
+            code = 1;
+        } else {
+            port_tx_put(byte);
+            code++;
+        }
     }
-    if (byte == 0) {
-        return tx_block_end(code);
-    }
-    port_tx_put(byte);
-    return (uint8_t)(code + 1u);
+    *crc = c;
+    return code;
 }
+#endif
 
 void frame_tx_begin(frame_tx_t *tx, uint8_t answers, uint8_t type, uint16_t seq, uint8_t len)
 {
@@ -131,25 +140,15 @@ void frame_tx_begin(frame_tx_t *tx, uint8_t answers, uint8_t type, uint16_t seq,
 
 void frame_tx_bytes(frame_tx_t *tx, const uint8_t *data, uint8_t n)
 {
-    uint32_t crc = tx->crc;
-    uint8_t code = tx->code;
-    while (n-- > 0u) {
-        uint8_t byte = *data++;
-        crc = crc32c_update(crc, byte);
-        code = tx_put(code, byte);
-    }
-    tx->crc = crc;
-    tx->code = code;
+    tx->code = frame_tx_run(&tx->crc, tx->code, data, n);
 }
 
 void frame_tx_end(frame_tx_t *tx)
 {
     uint32_t crc = tx->crc ^ CRC32C_XOROUT;
-    uint8_t code = tx->code;
-    for (uint8_t i = 0; i < FRAME_CRC_SIZE; i++) {
-        code = tx_put(code, (uint8_t)crc);
-        crc >>= 8;
-    }
+    const uint8_t tail[FRAME_CRC_SIZE] = {(uint8_t)crc, (uint8_t)(crc >> 8), (uint8_t)(crc >> 16),
+                                          (uint8_t)(crc >> 24)};
+    uint8_t code = frame_tx_run(&tx->crc, tx->code, tail, sizeof tail); /* tx->crc is done with */
     port_tx_put(0); /* the delimiter, released with the last block */
     port_tx_close(code);
 }
