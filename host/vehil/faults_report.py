@@ -241,11 +241,11 @@ def run_campaign(args: argparse.Namespace, console: Console) -> int:
     return 1 if any(r.wrong for r in rows) else 0
 
 
-def reset_recovery_s(board: str, what: int = 1) -> float:
-    """From a reboot request (what=1) or a hang (2: the watchdog must act) to HELLO answered."""
+def reset_recovery_s(board: str, what: str = "REBOOT") -> float:
+    """From a reboot request or a hang (HANG: the watchdog must act) to HELLO answered."""
     with open_board(board) as link:
         start = time.perf_counter()
-        link.request("RESET", what=what)
+        link.request("RESET", what=SCHEMA.reset_what[what])
         link.wait_ready(10.0)
         link.hello()
         return time.perf_counter() - start
@@ -331,7 +331,7 @@ def main(argv: list[str] | None = None) -> int:
     figures["reset_to_ready_s"] = reset_recovery_s(args.board)
     console.print(f"board reset to ready again: {figures['reset_to_ready_s'] * 1e3:.0f} ms")
     if args.board == "simavr":  # QEMU's mega2560 has no watchdog
-        hang = figures["watchdog_to_ready_s"] = reset_recovery_s(args.board, what=2)
+        hang = figures["watchdog_to_ready_s"] = reset_recovery_s(args.board, what="HANG")
         console.print(f"board hung, watchdog reset, ready again: {hang * 1e3:.0f} ms")
     figures["reset_mid_run"] = resumed_run(args.board)
     console.print(f"a run with a board reset half-way: {figures['reset_mid_run']}")

@@ -91,7 +91,7 @@ def seed_corpus(directory: Path, seed: int = 0) -> int:
         "stats": _frame("GET_STATS", 3),
         "estimator": _frame("GET_ESTIMATOR", 4, index=1),
         "baud": _frame("SET_BAUD", 5, baud=500_000),
-        "reset": _frame("RESET", 6, what=0),
+        "reset": _frame("RESET", 6, what=SCHEMA.reset_what["STATE"]),
     }
     for name, spec in estimators.estimators().items():
         for mode in spec.modes:

@@ -29,6 +29,7 @@ from vehil.protocol.schema import SCHEMA
 
 _ERROR_NAMES = {v: k for k, v in SCHEMA.error.items()}
 _RESET_CAUSES = {v: k for k, v in SCHEMA.reset_cause.items()}
+_RESET_STATE = SCHEMA.reset_what["STATE"]
 # Seq 0 is reserved for frames the board sends on its own (boot INFO, link errors),
 # 0xFFFF for requests slipped in from outside the session (faults:// reboot_after).
 _FIRST_SEQ = 1
@@ -261,9 +262,7 @@ class Link:
         while (got := self._read_frame(deadline)) is not None:
             f = got[0]
             if f.name == "INFO" and f.seq == 0:
-                fields = f.fields()
-                self._check_version(fields)
-                return fields
+                return self._info_fields(f)
         raise BoardTimeout(
             f"no ready frame from the board within {timeout_s:.1f} s "
             f"(received {self.decoder.bad_frames} undecodable frames; "
@@ -271,13 +270,24 @@ class Link:
         )
 
     @staticmethod
-    def _check_version(info: dict[str, Any]) -> None:
-        if info["protocol"] != SCHEMA.protocol_version:
+    def _info_fields(f: framing.Frame) -> dict[str, Any]:
+        """INFO's fields once its protocol version and schema hash (its first five bytes,
+        whatever the rest's layout) are this host's."""
+        protocol = f.body[0] if f.body else None
+        schema_hash = int.from_bytes(f.body[1:5], "little") if len(f.body) >= 5 else None
+        fix = "rebuild and reflash the firmware (`vehil build`) or install the matching host"
+        if protocol != SCHEMA.protocol_version:
             raise ProtocolMismatch(
-                f"firmware speaks protocol v{info['protocol']}, this host speaks "
-                f"v{SCHEMA.protocol_version}: rebuild and reflash the firmware "
-                "(`vehil build`) or install the matching host"
+                f"firmware speaks protocol v{protocol}, this host speaks "
+                f"v{SCHEMA.protocol_version}: {fix}"
             )
+        if schema_hash != SCHEMA.hash:
+            got = "none" if schema_hash is None else f"{schema_hash:08x}"
+            raise ProtocolMismatch(
+                f"firmware was built from another messages.toml of protocol v{protocol} "
+                f"(schema hash {got}, this host's {SCHEMA.hash:08x}): {fix}"
+            )
+        return f.fields()
 
     def pipeline(
         self,
@@ -301,7 +311,7 @@ class Link:
             if name == "SAMPLE" and "index" not in fields:
                 fields = {"index": self.sample_index, **fields}
                 self.sample_index = (self.sample_index + 1) & 0xFFFF
-            elif name == "CONFIG" or (name == "RESET" and fields.get("what") == 0):
+            elif name == "CONFIG" or (name == "RESET" and fields.get("what") == _RESET_STATE):
                 self.sample_index = 0  # the board counts from 0 again
             request = _Pending(name, SCHEMA.messages[name].pack(**fields))
             while pending and (
@@ -421,8 +431,7 @@ class Link:
     # -- the protocol's verbs --------------------------------------------
 
     def hello(self) -> BoardInfo:
-        fields = self.request("HELLO", protocol=SCHEMA.protocol_version).fields()
-        self._check_version(fields)
+        fields = self._info_fields(self.request("HELLO", protocol=SCHEMA.protocol_version).frame)
         estimators = []
         for i in range(fields["estimators"]):
             e = self.request("GET_ESTIMATOR", index=i).fields()

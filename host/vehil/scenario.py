@@ -340,6 +340,8 @@ def parse(data: dict[str, Any], where: str, path: Path | None = None) -> Scenari
         params = spec.param_values(given)
     except ValueError as exc:
         raise est_t.fail("params", str(exc)) from None
+    if problems := spec.rule_problems(params, mode):
+        raise est_t.fail("params", f"{spec.name} in {mode}: {'; '.join(problems)}")
 
     if ("plant" in data) == ("log" in data):
         raise ScenarioError(f"{where}: give exactly one of [plant] and [log]")

@@ -87,7 +87,7 @@ def test_unreachable_baud_rate_is_refused_with_its_reason(link) -> None:
 
 def test_reboot_request_restarts_the_board_and_it_announces_itself(link) -> None:
     before = link.info.fields["boot_count"]
-    link.request("RESET", what=1)
+    link.request("RESET", what=SCHEMA.reset_what["REBOOT"])
     ready = link.wait_ready(5.0)
     assert ready["boot_count"] == before + 1
     assert ready["reset_cause"] == SCHEMA.reset_cause["SOFTWARE"]
@@ -98,7 +98,8 @@ def test_a_hung_board_is_brought_back_by_its_watchdog(link) -> None:
     if link.board_name != "simavr":
         pytest.skip("QEMU's mega2560 has no watchdog: a hung board stays hung")
     before = link.info.fields["boot_count"]
-    link.request("RESET", what=2)  # hang, interrupts off, the watchdog not fed
+    # hang, interrupts off, the watchdog not fed
+    link.request("RESET", what=SCHEMA.reset_what["HANG"])
     ready = link.wait_ready(5.0)  # WDTO_1S of simulated time
     assert ready["reset_cause"] == SCHEMA.reset_cause["WATCHDOG"]
     assert ready["boot_count"] == before + 1

@@ -129,7 +129,7 @@ def test_corrupt_and_oversize_frames_are_counted_and_the_link_recovers(link) -> 
 
 
 def test_reboot_request_is_acked_and_the_board_announces_itself_again(link) -> None:
-    link.request("RESET", what=1)
+    link.request("RESET", what=SCHEMA.reset_what["REBOOT"])
     assert link.wait_ready(1.0)["reset_cause"] == SCHEMA.reset_cause["SOFTWARE"]
     assert link.hello().fields["boot_count"] == 2
 

@@ -3,6 +3,7 @@
 import pytest
 import serial
 
+from vehil.protocol.schema import SCHEMA
 from vehil.transports.protocol_faults import parse_spec, wrap_url
 
 
@@ -48,5 +49,5 @@ def test_reboot_after_slips_one_reboot_request_in_after_that_many_writes() -> No
     port.close()
     assert data[:2] == b"ab" and data.endswith(b"c")
     (reboot,) = frame.StreamDecoder().feed(data[2:-1])
-    assert (reboot.name, reboot.fields()) == ("RESET", {"what": 1})
+    assert (reboot.name, reboot.fields()) == ("RESET", {"what": SCHEMA.reset_what["REBOOT"]})
     assert port.counts["reboot"] == 1

@@ -201,3 +201,10 @@ def test_a_regular_log_runs_at_its_own_rate(tmp_path) -> None:  # noqa: ANN001
     (tmp_path / "drive.csv").write_text("t [s],speed [1]\n0,0\n0.02,1\n0.05,2\n0.07,3\n")
     with pytest.raises(ScenarioError, match=r'sample_time: "log": .* the log has no one regular'):
         scenario.parse(data, "x.toml", tmp_path / "x.toml")
+
+
+def test_parameters_an_estimator_s_rules_refuse_are_named_before_the_board_sees_them() -> None:
+    d = base()
+    d["estimator"] = {"name": "rls", "mode": "FIXED", "params": {"prefilter_hz": 5.0}}
+    with pytest.raises(ScenarioError, match=r"estimator.params: rls in FIXED: prefilter_hz must"):
+        scenario.parse(d, "x.toml")

@@ -120,6 +120,7 @@ static void send_info(const request_t *req)
 {
     msg_info_t info = {
         .protocol = VEHIL_PROTOCOL_VERSION,
+        .schema_hash = VEHIL_SCHEMA_HASH,
         .fw_major = VEHIL_FW_MAJOR,
         .fw_minor = VEHIL_FW_MINOR,
         .fw_patch = VEHIL_FW_PATCH,
@@ -213,7 +214,7 @@ static void on_reset(const request_t *r)
     }
     msg_reset_t m;
     msg_reset_unpack(r->body, &m);
-    if (m.what == 0) {
+    if (m.what == RESET_WHAT_STATE) {
         if (core.estimator == NULL) {
             send_error(r, ERR_NOT_CONFIGURED, 0);
             return;
@@ -221,10 +222,10 @@ static void on_reset(const request_t *r)
         core.estimator->reset(estimator_state());
         results_clear();
         send_ack(r);
-    } else if (m.what == 1 || m.what == 2) {
+    } else if (m.what == RESET_WHAT_REBOOT || m.what == RESET_WHAT_HANG) {
         send_ack(r);
         port_flush();
-        if (m.what == 1) {
+        if (m.what == RESET_WHAT_REBOOT) {
             port_reboot();
         } else {
             port_hang();

@@ -5,7 +5,8 @@
 
 #include "proto/wire.h"
 
-#define VEHIL_PROTOCOL_VERSION 3u
+#define VEHIL_PROTOCOL_VERSION 4u
+#define VEHIL_SCHEMA_HASH 0xC9FA3508ul
 #define VEHIL_MAX_BODY 128u
 
 /* Message types */
@@ -50,6 +51,11 @@
 #define STATUS_ILL_CONDITIONED 0x10u
 #define STATUS_DIVERGED 0x20u
 
+/* RESET.what */
+#define RESET_WHAT_STATE 0x00u
+#define RESET_WHAT_REBOOT 0x01u
+#define RESET_WHAT_HANG 0x02u
+
 /* INFO reset causes */
 #define RESET_CAUSE_UNKNOWN 0x00u
 #define RESET_CAUSE_POWER_ON 0x01u
@@ -93,9 +99,7 @@ static inline void msg_config_unpack(const uint8_t *body, msg_config_t *m)
     m->mode = get_u8(body + 1);
 }
 
-/* RESET: what=0: reset the configured estimator's state; what=1: reboot the board (watchdog);
-what=2: hang with interrupts off until the watchdog resets the board (its self-test: INFO
-then gives reset_cause WATCHDOG; a board without a watchdog, QEMU's, stays hung). */
+/* RESET: Reset the estimator's state, reboot the board, or hang it for the watchdog (see [reset_what]). */
 #define MSG_RESET_FIXED_SIZE 1u
 typedef struct {
     uint8_t what;
@@ -158,9 +162,10 @@ static inline void msg_get_estimator_unpack(const uint8_t *body, msg_get_estimat
 }
 
 /* INFO: Board identity; also sent unsolicited (seq 0) once the firmware is ready after a reset. */
-#define MSG_INFO_FIXED_SIZE 30u
+#define MSG_INFO_FIXED_SIZE 34u
 typedef struct {
     uint8_t protocol;
+    uint32_t schema_hash;
     uint8_t fw_major;
     uint8_t fw_minor;
     uint8_t fw_patch;
@@ -180,40 +185,42 @@ typedef struct {
 static inline void msg_info_pack(const msg_info_t *m, uint8_t *body)
 {
     put_u8(body + 0, m->protocol);
-    put_u8(body + 1, m->fw_major);
-    put_u8(body + 2, m->fw_minor);
-    put_u8(body + 3, m->fw_patch);
-    put_u32(body + 4, m->build_id);
-    put_u8(body + 8, m->build_dirty);
-    put_u32(body + 9, m->f_cpu);
-    put_u32(body + 13, m->baud);
-    put_u16(body + 17, m->max_body);
-    put_u16(body + 19, m->rx_buffer);
-    put_u16(body + 21, m->free_ram);
-    put_u16(body + 23, m->boot_count);
-    put_u8(body + 25, m->reset_cause);
-    put_u8(body + 26, m->estimators);
-    put_u16(body + 27, m->probe_cycles);
-    put_u8(body + 29, m->result_cache);
+    put_u32(body + 1, m->schema_hash);
+    put_u8(body + 5, m->fw_major);
+    put_u8(body + 6, m->fw_minor);
+    put_u8(body + 7, m->fw_patch);
+    put_u32(body + 8, m->build_id);
+    put_u8(body + 12, m->build_dirty);
+    put_u32(body + 13, m->f_cpu);
+    put_u32(body + 17, m->baud);
+    put_u16(body + 21, m->max_body);
+    put_u16(body + 23, m->rx_buffer);
+    put_u16(body + 25, m->free_ram);
+    put_u16(body + 27, m->boot_count);
+    put_u8(body + 29, m->reset_cause);
+    put_u8(body + 30, m->estimators);
+    put_u16(body + 31, m->probe_cycles);
+    put_u8(body + 33, m->result_cache);
 }
 static inline void msg_info_unpack(const uint8_t *body, msg_info_t *m)
 {
     m->protocol = get_u8(body + 0);
-    m->fw_major = get_u8(body + 1);
-    m->fw_minor = get_u8(body + 2);
-    m->fw_patch = get_u8(body + 3);
-    m->build_id = get_u32(body + 4);
-    m->build_dirty = get_u8(body + 8);
-    m->f_cpu = get_u32(body + 9);
-    m->baud = get_u32(body + 13);
-    m->max_body = get_u16(body + 17);
-    m->rx_buffer = get_u16(body + 19);
-    m->free_ram = get_u16(body + 21);
-    m->boot_count = get_u16(body + 23);
-    m->reset_cause = get_u8(body + 25);
-    m->estimators = get_u8(body + 26);
-    m->probe_cycles = get_u16(body + 27);
-    m->result_cache = get_u8(body + 29);
+    m->schema_hash = get_u32(body + 1);
+    m->fw_major = get_u8(body + 5);
+    m->fw_minor = get_u8(body + 6);
+    m->fw_patch = get_u8(body + 7);
+    m->build_id = get_u32(body + 8);
+    m->build_dirty = get_u8(body + 12);
+    m->f_cpu = get_u32(body + 13);
+    m->baud = get_u32(body + 17);
+    m->max_body = get_u16(body + 21);
+    m->rx_buffer = get_u16(body + 23);
+    m->free_ram = get_u16(body + 25);
+    m->boot_count = get_u16(body + 27);
+    m->reset_cause = get_u8(body + 29);
+    m->estimators = get_u8(body + 30);
+    m->probe_cycles = get_u16(body + 31);
+    m->result_cache = get_u8(body + 33);
 }
 
 /* PONG: PING's payload echoed, with the board's cycle counter when the PING was handled. */

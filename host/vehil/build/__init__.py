@@ -31,4 +31,22 @@ def build(parts: Sequence[str] = PARTS, *, verbose: bool = False) -> dict[str, P
         "sim": lambda: build_simavr_bridge(verbose=verbose),
         "native": lambda: build_native(verbose=verbose),
     }
-    return {part: steps[part]() for part in parts}
+    built = {part: steps[part]() for part in parts}
+    if "native" in parts:
+        check_interfaces()
+    return built
+
+
+def check_interfaces() -> None:
+    """Every estimator's C against its spec, on the native board (vehil/build/interface.py)."""
+    from vehil.boards import open_board
+    from vehil.build.interface import check
+    from vehil.estimators import estimators
+
+    with open_board("native") as link:
+        problems = check(link, estimators().values(), every_spec_built=True)
+    if problems:
+        raise BuildError(
+            "the estimators' C and their Python specs disagree (fix one to match the other):\n  "
+            + "\n  ".join(problems)
+        )

@@ -20,6 +20,9 @@ import numpy as np
 from vehil.spec import INT32_RANGE, Param, Signal, resolve_params
 
 MODES = ("F32", "FIXED")
+# A rule over several parameters that the C's configure enforces too: given the values and
+# the numeric mode, what is wrong with them, or None.
+Rule = Callable[[Mapping[str, float], str], str | None]
 
 
 class Reference(Protocol):
@@ -66,10 +69,16 @@ class EstimatorSpec:
     # Cycles per step the estimator must keep on the ATmega2560, by mode: the median over
     # its scenario, stop-and-wait (`vehil profile --budgets` checks them).
     budget: Mapping[str, int] = field(default_factory=dict)
+    # Checks beyond each parameter's range, the C's as well (vehil build probes both).
+    rules: tuple[Rule, ...] = ()
 
     def param_values(self, given: Mapping[str, float]) -> dict[str, float]:
         """Defaults overridden by `given`; raises ValueError naming each bad one."""
         return resolve_params(self.name, self.params, given)
+
+    def rule_problems(self, values: Mapping[str, float], mode: str) -> list[str]:
+        """What the spec's rules refuse in these values in this mode (the board would too)."""
+        return [m for rule in self.rules if (m := rule(values, mode))]
 
     def encode_params(self, values: Mapping[str, float], mode: str) -> bytes:
         return encode_values([values[p.name] for p in self.params], self.params, mode)

@@ -68,6 +68,28 @@ SHARED_PARAMS = (
     Param("T", "s", q=30, default=0.01, lo=1e-3, hi=1.0, doc="sample time"),
     Param("prefilter_hz", "Hz", q=16, default=0.0, lo=0.0, hi=50.0, doc="0: no prefilter"),
 )
+
+
+def no_fixed_prefilter(p: Mapping[str, float], mode: str) -> str | None:
+    if mode == "FIXED" and p["prefilter_hz"] != 0:
+        return "prefilter_hz must be 0 in FIXED (no prefilter in fixed point)"
+    return None
+
+
+def a_positive_definite(p: Mapping[str, float], mode: str) -> str | None:
+    a = [[p["a11"], p["a12"], p["a13"]], [p["a12"], p["a22"], p["a23"]]]
+    a.append([p["a13"], p["a23"], p["a33"]])
+    if np.any(np.linalg.eigvalsh(np.array(a)) <= 0):
+        return "the weights a11..a33 must make A positive definite"
+    return None
+
+
+def chi2_fits(p: Mapping[str, float], mode: str) -> str | None:
+    if mode == "FIXED" and p["chi2"] / p["T"] ** 2 >= 2.0**20:
+        return "chi2 / T^2 must stay below 2^20 in FIXED (the filter's products would not fit)"
+    return None
+
+
 STLQF_PARAMS = (
     Param("chi1", "s", q=24, default=1.0, lo=0.0, hi=10.0, doc="χ1 (eq. 14)"),
     Param("chi2", "s^2", q=24, default=1.0, lo=0.0, hi=10.0, doc="χ2 (eq. 14)"),
@@ -284,6 +306,7 @@ STLQF = register(
         outputs=(*OUTPUTS, Signal("log_cond", "1", q=24, doc="log10 condition estimate")),
         reference=Stlqf,
         params=STLQF_PARAMS,
+        rules=(a_positive_definite, chi2_fits, no_fixed_prefilter),
         modes=("F32", "FIXED"),
         paper="002-stlqf-hil-mega2560",
         delay=WL,
@@ -306,6 +329,7 @@ RLS = register(
             Param("p_cap", "1", q=0, default=100.0, lo=1.0, hi=1e6, doc="windup guard"),
             *SHARED_PARAMS,
         ),
+        rules=(no_fixed_prefilter,),
         modes=("F32", "FIXED"),
         paper="002-stlqf-hil-mega2560",
     )

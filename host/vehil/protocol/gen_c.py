@@ -32,6 +32,7 @@ def render(schema: Schema = SCHEMA) -> str:
         '#include "proto/wire.h"',
         "",
         f"#define VEHIL_PROTOCOL_VERSION {schema.protocol_version}u",
+        f"#define VEHIL_SCHEMA_HASH 0x{schema.hash:08X}ul",
         f"#define VEHIL_MAX_BODY {schema.max_body}u",
         "",
         "/* Message types */",
@@ -40,6 +41,7 @@ def render(schema: Schema = SCHEMA) -> str:
     out += ["", "/* ERROR codes */"] + _enum("ERR_", schema.error)
     out += ["", "/* Numeric modes */"] + _enum("MODE_", schema.mode)
     out += ["", "/* RESULT status bits */"] + _enum("STATUS_", schema.status)
+    out += ["", "/* RESET.what */"] + _enum("RESET_WHAT_", schema.reset_what)
     out += ["", "/* INFO reset causes */"] + _enum("RESET_CAUSE_", schema.reset_cause)
     for m in schema.messages.values():
         lname = m.name.lower()

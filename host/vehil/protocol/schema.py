@@ -6,11 +6,14 @@ file the C header is generated from, so the two sides cannot disagree.
 
 from __future__ import annotations
 
+import json
 import struct
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
+
+from vehil.protocol.crc import INIT, crc32c
 
 SCHEMA_PATH = Path(__file__).with_name("messages.toml")
 
@@ -91,6 +94,10 @@ class Schema:
     mode: dict[str, int]
     status: dict[str, int]
     reset_cause: dict[str, int]
+    reset_what: dict[str, int]
+    # CRC-32C of the schema's content (not its comments): INFO carries the board's, so a
+    # host and a board built from different schemas of one protocol version refuse to talk.
+    hash: int
 
     def by_type(self, type_code: int) -> MessageType | None:
         for m in self.messages.values():
@@ -133,7 +140,13 @@ def load(path: Path = SCHEMA_PATH) -> Schema:
         mode=dict(raw["mode"]),
         status=dict(raw["status"]),
         reset_cause=dict(raw["reset_cause"]),
+        reset_what=dict(raw["reset_what"]),
+        hash=content_hash(raw),
     )
+
+
+def content_hash(raw: dict[str, Any]) -> int:
+    return crc32c(json.dumps(raw, sort_keys=True).encode()) ^ INIT
 
 
 SCHEMA = load()

@@ -28,10 +28,9 @@ from vehil.transports.wrapping import WrappingSerial
 
 KINDS = ("drop", "flip", "dup", "insert")
 _OPTIONS = ("delay_ms", "reboot_after", "seed")
-# RESET what=1 with a seq the host never uses for its own requests in flight.
-_REBOOT = frame.encode(
-    SCHEMA.messages["RESET"].type, frame.SEQ_MAX, SCHEMA.messages["RESET"].pack(what=1)
-)
+# RESET REBOOT with a seq the host never uses for its own requests in flight.
+_RESET = SCHEMA.messages["RESET"]
+_REBOOT = frame.encode(_RESET.type, frame.SEQ_MAX, _RESET.pack(what=SCHEMA.reset_what["REBOOT"]))
 
 
 def parse_spec(spec: str) -> dict[str, float]:
