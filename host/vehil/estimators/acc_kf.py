@@ -95,14 +95,22 @@ class PerStep:
     c: tuple[float, float]
 
 
+def lpf_below_limit(p: Mapping[str, float], mode: str = "F32") -> str | None:
+    """The spec's rule, CONFIG's too: the low-pass's cutoff within reach of T."""
+    T, fc = p["T"], p["lpf_hz"]
+    if fc * T > LPF_MAX_FC_T:
+        return (
+            f"lpf_hz = {fc:g} Hz is above {LPF_MAX_FC_T:g}/T = {LPF_MAX_FC_T / T:g} Hz "
+            "at this sample time: lower it, or 0 to pass a_m unfiltered"
+        )
+    return None
+
+
 def per_step(p: Mapping[str, float]) -> PerStep:
     """The step's numbers from the physical parameters and T, as CONFIG derives them."""
     T, fc = p["T"], p["lpf_hz"]
-    if fc * T > LPF_MAX_FC_T:
-        raise ValueError(
-            f"acc_kf: lpf_hz = {fc:g} Hz is above {LPF_MAX_FC_T:g}/T = {LPF_MAX_FC_T / T:g} Hz "
-            "at this sample time: lower it, or 0 to pass a_m unfiltered"
-        )
+    if problem := lpf_below_limit(p):
+        raise ValueError(f"acc_kf: {problem}")
     if fc > 0.0:
         lp = butter2(fc, T, highpass=False)
         b, c = (lp.b0, lp.b1, lp.b2), (-lp.a1, -lp.a2)
@@ -323,6 +331,7 @@ SPEC = register(
         ),
         reference=AccKF,
         params=PARAMS,
+        rules=(lpf_below_limit,),
         paper="004-acc-speed-kalman-patent",
     )
 )
