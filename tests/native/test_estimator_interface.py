@@ -13,7 +13,7 @@ from vehil.estimators import estimators, get
 
 @pytest.fixture(scope="module")
 def link(built):  # noqa: ANN001, ANN201
-    with open_board("native", timeout_s=0.5) as link:
+    with open_board("native") as link:
         yield link
 
 
