@@ -122,6 +122,51 @@ static int32_t lpf_q(const acc_kf_params_q_t *p, acc_kf_q_t *s, int32_t a_m, uin
     return a_f;
 }
 
+/* The gains and the covariance update (eq. 8's C = [c, 0]), their flags kept in p_status.
+ * With c = 1 the recursion depends on P alone: once an update leaves P's bits unchanged
+ * (p_steady), every later step with c = 1 would compute the same gains and the same P,
+ * so step_q reuses them; the bits are those of the full recursion (the steady state of
+ * a time-invariant filter, reached in fixed point; docs/estimators/acc_kf.md). */
+static void covariance_q(const acc_kf_params_q_t *p, acc_kf_q_t *s, int32_t c, uint8_t unit_c)
+{
+    uint8_t status = 0;
+    int32_t T = p->T;
+    /* M = A P Aᵀ + Q (P11, P12 Q28; P22 Q30) */
+    int32_t t_p12 = fx_mul(T, 30, s->p12, 28, 28, &status);
+    int32_t t_p22 = fx_mul(T, 30, s->p22, 30, 28, &status);
+    int32_t m11 = fx_add(fx_sub(s->p11, fx_add(t_p12, t_p12, &status), &status),
+                         fx_add(fx_mul(p->T2, 30, s->p22, 30, 28, &status), p->q_v, &status),
+                         &status);
+    int32_t m12 = fx_sub(s->p12, t_p22, &status);
+    int32_t m22 = fx_add(s->p22, p->q_b, &status);
+    int32_t cm11 = m11, cm12 = m12;
+    int32_t c2m11 = fx_rescale(m11, 28, 24, &status); /* Q24 */
+    if (!unit_c) {
+        cm11 = fx_mul(c, 30, m11, 28, 28, &status);
+        cm12 = fx_mul(c, 30, m12, 28, 28, &status);
+        c2m11 = fx_mul(c, 30, cm11, 28, 24, &status);
+    }
+    int32_t S = fx_add(c2m11, p->R, &status); /* Q24 */
+    int32_t k1 = 0, k2 = 0; /* no update if S is not positive (it is R > 0 or more) */
+    if (S > 0) {
+        fx_recip_t inv_s = fx_recip(S);
+        k1 = fx_div_by(cm11, 28, inv_s, 24, 30, &status); /* Q30 */
+        k2 = fx_div_by(cm12, 28, inv_s, 24, 30, &status); /* Q30, 1/s */
+    } else {
+        status |= STATUS_SINGULAR;
+    }
+    int32_t p11 = fx_sub(m11, fx_mul(k1, 30, cm11, 28, 28, &status), &status);
+    int32_t p12 = fx_sub(m12, fx_mul(k1, 30, cm12, 28, 28, &status), &status);
+    int32_t p22 = fx_sub(m22, fx_mul(k2, 30, cm12, 28, 30, &status), &status);
+    s->p_steady = unit_c && p11 == s->p11 && p12 == s->p12 && p22 == s->p22;
+    s->p11 = p11;
+    s->p12 = p12;
+    s->p22 = p22;
+    s->k1 = k1;
+    s->k2 = k2;
+    s->p_status = status;
+}
+
 static uint8_t step_q(acc_kf_state_t *st, const uint8_t *in, uint8_t *out)
 {
     const acc_kf_params_q_t *p = &st->u.q.p;
@@ -144,40 +189,19 @@ static uint8_t step_q(acc_kf_state_t *st, const uint8_t *in, uint8_t *out)
         int32_t v_pred =
             fx_add(s->v, fx_mul(T, 30, fx_sub(s->u_prev, s->a0, &status), 24, 20, &status), &status);
         int32_t b_pred = fx_add(s->a0, w2, &status);
-        /* M = A P Aᵀ + Q (P11, P12 Q28; P22 Q30) */
-        int32_t t_p12 = fx_mul(T, 30, s->p12, 28, 28, &status);
-        int32_t t_p22 = fx_mul(T, 30, s->p22, 30, 28, &status);
-        int32_t m11 = fx_add(fx_sub(s->p11, fx_add(t_p12, t_p12, &status), &status),
-                             fx_add(fx_mul(p->T2, 30, s->p22, 30, 28, &status), p->q_v, &status),
-                             &status);
-        int32_t m12 = fx_sub(s->p12, t_p22, &status);
-        int32_t m22 = fx_add(s->p22, p->q_b, &status);
         /* c = 1 - slip (eq. 8); c = 1, every step without the correction, multiplies
-         * exactly, so those steps skip its four products and keep the same bits. */
-        int32_t cm11 = m11, cm12 = m12, c_v_pred = v_pred;
-        int32_t c2m11 = fx_rescale(m11, 28, 24, &status); /* Q24 */
-        if (braking && st->corr2 && s->slip != 0) {
-            int32_t c = fx_sub(ONE_Q30, s->slip, &status); /* slip in (0, s_max] */
-            cm11 = fx_mul(c, 30, m11, 28, 28, &status);
-            cm12 = fx_mul(c, 30, m12, 28, 28, &status);
-            c2m11 = fx_mul(c, 30, cm11, 28, 24, &status);
-            c_v_pred = fx_mul(c, 30, v_pred, 20, 20, &status);
+         * exactly, so those steps skip c's products and keep the same bits. */
+        uint8_t unit_c = !(braking && st->corr2 && s->slip != 0);
+        int32_t c = unit_c ? ONE_Q30 : fx_sub(ONE_Q30, s->slip, &status); /* slip in (0, s_max] */
+        if (!unit_c || !s->p_steady) {
+            covariance_q(p, s, c, unit_c);
         }
-        int32_t S = fx_add(c2m11, p->R, &status); /* Q24 */
-        int32_t k1 = 0, k2 = 0; /* no update if S is not positive (it is R > 0 or more) */
-        if (S > 0) {
-            fx_recip_t inv_s = fx_recip(S);
-            k1 = fx_div_by(cm11, 28, inv_s, 24, 30, &status); /* Q30 */
-            k2 = fx_div_by(cm12, 28, inv_s, 24, 30, &status); /* Q30, 1/s */
-        } else {
-            status |= STATUS_SINGULAR;
-        }
+        status |= s->p_status;
+        int32_t c_v_pred = unit_c ? v_pred : fx_mul(c, 30, v_pred, 20, 20, &status);
+        int32_t k1 = s->k1, k2 = s->k2;
         int32_t e = fx_sub(v_m, c_v_pred, &status); /* Q20 */
         s->v = fx_add(v_pred, fx_mul(k1, 30, e, 20, 20, &status), &status);
         s->a0 = fx_add(b_pred, fx_mul(k2, 30, e, 20, 24, &status), &status);
-        s->p11 = fx_sub(m11, fx_mul(k1, 30, cm11, 28, 28, &status), &status);
-        s->p12 = fx_sub(m12, fx_mul(k1, 30, cm12, 28, 28, &status), &status);
-        s->p22 = fx_sub(m22, fx_mul(k2, 30, cm12, 28, 30, &status), &status);
         int32_t a_f = lpf_q(p, s, a_m, &status);
         s->w2_prev = fx_mul(p->rbar, 30, fx_sub(a_f, s->af[1], &status), 24, 24, &status);
         if (braking && s->v > p->v_guard) {

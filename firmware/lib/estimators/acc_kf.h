@@ -58,6 +58,9 @@ typedef struct {
     int32_t w2_prev;      /* Q24 */
     int32_t slip;         /* Q30 */
     int32_t am[2], af[2]; /* Q24 */
+    int32_t k1, k2;       /* Q30: the last gains */
+    uint8_t p_steady;     /* the last update, with c = 1, left P unchanged */
+    uint8_t p_status;     /* the flags the last covariance update raised */
 } acc_kf_q_t;
 
 typedef struct {
