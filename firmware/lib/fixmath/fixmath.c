@@ -377,8 +377,12 @@ int32_t fx_log2_q24(int32_t x, uint8_t q)
         m <<= 1;
         top--;
     }
-    uint32_t idx = (m >> 27) & 15u, frac = (m >> 17) & 0x3ffu; /* f in 16ths, the rest */
+    /* f in 16ths (bits 30..27), the rest (26..17) from the top half: byte moves and a
+     * few bit shifts, where a 32-bit shift by 27 or 17 is a loop on the AVR. */
+    uint16_t h = (uint16_t)(m >> 16);
+    uint8_t idx = (uint8_t)(h >> 11) & 15u;
+    uint16_t frac = (h >> 1) & 0x3ffu;
     int32_t lo = rom_i32(ROM_AT(log2_table, idx)), hi = rom_i32(ROM_AT(log2_table, idx + 1u));
-    int32_t mant = lo + (int32_t)(((uint32_t)(hi - lo) * frac + (1u << 9)) >> 10);
-    return (int32_t)(top - (int8_t)q) * 16777216 + mant;
+    uint32_t step = ((uint32_t)(hi - lo) * frac + (1u << 9)) >> 10; /* < 2^21 · 2^10 */
+    return (int32_t)((uint32_t)(uint8_t)(top - (int8_t)q) << 24) + lo + (int32_t)step;
 }
