@@ -210,3 +210,19 @@ def test_fx_dot16_sums_int16_products_modulo_2_to_the_32(native_lib) -> None:  #
         want -= 2**32 if want >= 2**31 else 0
         arr = ctypes.c_int16 * max(1, len(a))
         assert f(arr(*a), arr(*b), len(a)) == want, (a, b)
+
+
+def test_fx_mul16_h15_gives_the_bits_of_fx_mul_shr(native_lib) -> None:  # noqa: ANN001
+    """int32 × Q15 (|b| < 2^15), rounded half up, against fx_mul_shr at shift 15."""
+    shr = _kernel(native_lib, "fx_mul_shr_c")
+    m = native_lib.fx_mul16_h15_c
+    m.argtypes, m.restype = [ctypes.c_int32, ctypes.c_int16], ctypes.c_int32
+    rng = np.random.default_rng(1515)
+    bs = [0, 1, -1, 2**14, 2**15 - 1, -(2**15) + 1] + [
+        int(b) for b in rng.integers(-32767, 32768, 300)
+    ]
+    for a in _operands(rng, 300):
+        for b in bs[:: 1 + len(bs) // 60]:
+            status = ctypes.c_uint8(0)
+            assert m(a, b) == shr(a, b, 15, ctypes.byref(status)), (a, b)
+            assert status.value == 0, (a, b)

@@ -52,6 +52,9 @@ int32_t fx_mul16_c(int32_t a, int16_t b, uint8_t s, uint8_t *status)
 /* fx_umul16_q15 out of line, for the native tests. */
 uint32_t fx_umul16_q15_c(uint32_t a, uint16_t b) { return fx_umul16_q15(a, b); }
 
+/* fx_mul16_h15 out of line, for the native tests. */
+int32_t fx_mul16_h15_c(int32_t a, int16_t b) { return fx_mul16_h15(a, b); }
+
 int32_t fx_dot16_c(const int16_t *a, const int16_t *b, uint8_t n)
 {
     uint32_t acc = 0; /* modulo 2^32, as the AVR's bytes */

@@ -192,6 +192,22 @@ FX_INLINE uint32_t fx_umul16_q15(uint32_t a, uint16_t b)
 
 uint32_t fx_umul16_q15_c(uint32_t a, uint16_t b);
 
+/* a · b · 2^-15 rounded half up for |b| < 2^15: fx_mul_shr(a, b, 15)'s bits (|a · b| < 2^46
+ * cannot saturate), in two 16 × 16 hardware products and byte moves, not a 32 × 32. */
+FX_INLINE int32_t fx_mul16_h15(int32_t a, int16_t b)
+{
+    int16_t ah = (int16_t)((uint32_t)a >> 16);
+    uint16_t al = (uint16_t)a;
+    __asm__("" : "+r"(ah), "+r"(al), "+r"(b)); /* keep the 16 × 16 products (fx_mul16) */
+    int32_t lo = (int32_t)al * b;
+    int32_t h = (int32_t)ah * b + (lo >> 16); /* floor(a b 2^-16) */
+    /* 2 h + floor((L + 2^14) 2^-15) for the low half L, from L's top two bits */
+    uint8_t up = (uint8_t)(((uint8_t)((uint16_t)lo >> 14) + 1u) >> 1);
+    return (int32_t)((uint32_t)h << 1) + up;
+}
+
+int32_t fx_mul16_h15_c(int32_t a, int16_t b);
+
 /* Σ a[i] b[i] for i < n, int16 pairs summed in int32 (modulo 2^32: the caller keeps the
  * sum in range). On the AVR an assembly loop of hardware multiplies (fx_dot16_avr.S, ~35
  * cycles a pair); the C twin gives the same bits. */

@@ -31,13 +31,14 @@ static int16_t to_q15(int32_t x, uint8_t *status)
 }
 
 /* (x - Σ l[k] y[k stride] 2^-15) / l_ii for k < n: one substitution row, each product
- * rounded by fixmath's fixed-shift kernel (int64 sums are library calls on the AVR). */
+ * rounded by fixmath's int32 × Q15 kernel (int64 sums are library calls on the AVR);
+ * |l| <= INT16_MAX (to_q15, isqrt). */
 static int32_t substitute(int32_t x, const int16_t *l, const int32_t *y, uint8_t stride_l,
                           uint8_t n, int32_t inv, uint8_t *status)
 {
     int32_t s = x;
     for (uint8_t k = 0; k < n; k++) {
-        s = fx_sub(s, fx_mul_shr(l[k * stride_l], y[k], 15, status), status);
+        s = fx_sub(s, fx_mul16_h15(y[k], l[k * stride_l]), status);
     }
     return fx_mul_shr(s, inv, 16, status); /* 1 / l_ii in Q16 */
 }
