@@ -73,7 +73,8 @@ static int32_t shift(int32_t v, int16_t n, uint8_t *st)
 }
 
 /* a b 2^-n for a shift n known only at run time, rounded half up, saturated: on the AVR
- * through fixmath's assembly entry for that shift (the same bits as its C twin). */
+ * through fixmath's assembly entry for that shift (fx_mul_shr_n, the same bits as its C
+ * twin); past those shifts by a shift of the result. */
 static int32_t mul_shr(int32_t a, int32_t b, int16_t n, uint8_t *st)
 {
     if (n < 1) {
@@ -82,14 +83,7 @@ static int32_t mul_shr(int32_t a, int32_t b, int16_t n, uint8_t *st)
     if (n > 62) {
         return 0; /* |a b| < 2^62 */
     }
-#if defined(__AVR__)
-#define RLS_CASE(k)                                                                            \
-    case k:                                                                                    \
-        return fx_mul_h##k(a, b, st);
-    switch (n) { FX_SHIFTS(RLS_CASE) }
-#undef RLS_CASE
-#endif
-    return fx_mul_shr_c(a, b, (uint8_t)n, st);
+    return fx_mul_shr_n(a, b, (uint8_t)n, st);
 }
 
 /* 1 / s for s in [1/2, 1) (Q30), in Q29 to ~30 bits (fx_recip's 5e-7 is coarse for a P near

@@ -394,31 +394,39 @@ static void filter_q(const stlqf_q_t *q, const int32_t *x, const int32_t h[2][3]
     k[2] = normalize64(&row[4], &m[4], 1, ROW_LIMIT);
 }
 
+/* a b 2^-n rounded half up, for a product that fits int32 at that scale: a kernel for
+ * n >= 1, the exact int32 product shifted up otherwise. */
+static int32_t product(int32_t a, int32_t b, int8_t n, uint8_t *st)
+{
+    if (n >= 1) {
+        return n > 62 ? 0 : fx_mul_shr_n(a, b, (uint8_t)n, st);
+    }
+    return (int32_t)((uint32_t)(a * b) << -n);
+}
+
 /* The window's residual against the prior, ζ - Φ̃ θ_prior (the slopes' prior is 0, so
  * the v̇, ½ρv² and g' columns), from the rows in int32 (r, 2^e_r each channel) into
- * out at the exponent it returns. Its terms are int64 at a common exponent chosen so
- * each fits 2^56. */
+ * out at the exponent it returns: ζ's own, or coarser where a term would pass 2^28. Each
+ * product is rounded once at that exponent by a fixed-shift kernel; four terms below
+ * 2^28 keep the sum in int32. */
 static int8_t residual(const stlqf_q_t *q, const int32_t r[3][2 * STLQF_ROWS], const int8_t *e_r,
-                       const int32_t *prior, int64_t *out)
+                       const int32_t *prior, int32_t *out)
 {
-    const int32_t g_row = q->shared.g_cos; /* Q26 */
-    int8_t e_term[3];
+    /* a term's operands: the row (|r| < 2^27) or g' (Q26, < 2^30), θ (Q16) */
+    int8_t e_term[3], S = e_r[2];
     for (uint8_t c = 0; c < 3u; c++) {
         e_term[c] = (int8_t)(c < 2u ? e_r[c] - THETA_Q : -26 - THETA_Q);
-    }
-    /* |θ| < 2^(bits), |row| < 2^27: a term is below 2^(bits + 27 + e_term - S). */
-    int8_t S = e_r[2];
-    for (uint8_t c = 0; c < 3u; c++) {
-        int8_t need = (int8_t)(longit_bit_length((uint32_t)magnitude(prior[2u * c + 1u])) + 27 +
-                               e_term[c] - 56);
+        int32_t p = prior[2u * c + 1u];
+        int8_t need = (int8_t)(longit_bit_length(p < 0 ? (uint32_t)0 - (uint32_t)p : (uint32_t)p) +
+                               (c < 2u ? 27 : 30) + e_term[c] - 28);
         S = need > S ? need : S;
     }
-    /* g' is the same in every row: its term once. */
-    int64_t g_term = shift_up((int64_t)prior[5] * g_row, (int8_t)(e_term[2] - S));
+    uint8_t st = 0; /* S keeps every term below 2^28: nothing saturates */
+    int32_t g_term = product(prior[5], q->shared.g_cos, (int8_t)(S - e_term[2]), &st);
     for (uint8_t j = 0; j < STLQF_ROWS; j++) {
-        int64_t acc = shift_up(r[2][j], (int8_t)(e_r[2] - S)) - g_term;
+        int32_t acc = shift_down(r[2][j], (uint8_t)(S - e_r[2])) - g_term;
         for (uint8_t c = 0; c < 2u; c++) {
-            acc -= shift_up((int64_t)prior[2u * c + 1u] * r[c][j], (int8_t)(e_term[c] - S));
+            acc -= product(prior[2u * c + 1u], r[c][j], (int8_t)(S - e_term[c]), &st);
         }
         out[j] = acc;
     }
@@ -467,9 +475,7 @@ static uint8_t solve_q(stlqf_state_t *s, int32_t *log_cond)
         }
         e[c] = (int8_t)(e_r[ch] + weigh(q->band, col, x[c]));
     }
-    int64_t res[STLQF_ROWS];
-    int8_t e_res = residual(q, r, e_r, prior, res);
-    e_res = (int8_t)(e_res + normalize64(res, col, STLQF_ROWS, ROW_LIMIT));
+    int8_t e_res = residual(q, r, e_r, prior, col);
     e_res = (int8_t)(e_res + weigh(q->band, col, x[4]));
     e[4] = q->e_g[0];
     e[5] = q->e_g[1];

@@ -143,6 +143,10 @@ FX_MUL_KERNEL(fx_mul_rs, a, fx_mul_rs_c)
  * STLQF and RLS. */
 FX_MUL_KERNEL(fx_mul_shr, h, fx_mul_shr_c)
 
+/* fx_mul_shr for a shift known only at run time (1 <= s <= 62): on the AVR a switch to the
+ * assembly entry for that shift, so the product is still ~150 cycles and the same bits. */
+int32_t fx_mul_shr_n(int32_t a, int32_t b, uint8_t s, uint8_t *status);
+
 /* a · b · 2^-s for an int16 b (1 <= s <= 30), ties away from zero like fx_mul_rs, and the
  * same bits: two 16 × 16 hardware products and byte shifts, no int64. Only a = INT32_MIN,
  * b = INT16_MIN, s = 15 and smaller shifts can leave int32: those saturate (flagged). */
