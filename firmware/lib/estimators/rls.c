@@ -83,7 +83,7 @@ static int32_t mul_shr(int32_t a, int32_t b, int16_t n, uint8_t *st)
     if (n > 62) {
         return 0; /* |a b| < 2^62 */
     }
-    return fx_mul_shr_n(a, b, (uint8_t)n, st);
+    return fx_mul_shr_n(a, b, st, (uint8_t)n);
 }
 
 /* 1 / s for s in [1/2, 1) (Q30), in Q29 to ~30 bits (fx_recip's 5e-7 is coarse for a P near

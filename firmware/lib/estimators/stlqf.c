@@ -399,7 +399,7 @@ static void filter_q(const stlqf_q_t *q, const int32_t *x, const int32_t h[2][3]
 static int32_t product(int32_t a, int32_t b, int8_t n, uint8_t *st)
 {
     if (n >= 1) {
-        return n > 62 ? 0 : fx_mul_shr_n(a, b, (uint8_t)n, st);
+        return n > 62 ? 0 : fx_mul_shr_n(a, b, st, (uint8_t)n);
     }
     return (int32_t)((uint32_t)(a * b) << -n);
 }

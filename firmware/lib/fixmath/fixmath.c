@@ -43,17 +43,12 @@ int32_t fx_mul_rs_c(int32_t a, int32_t b, uint8_t s, uint8_t *status)
     return fx_sat((p + ((int64_t)1 << (s - 1u)) - (p < 0)) >> s, status);
 }
 
-int32_t fx_mul_shr_n(int32_t a, int32_t b, uint8_t s, uint8_t *status)
+#if !defined(__AVR__) /* the AVR's is fx_mul_avr.S's table */
+int32_t fx_mul_shr_n(int32_t a, int32_t b, uint8_t *status, uint8_t s)
 {
-#if defined(__AVR__)
-#define FX_CASE_N(k)                                                                           \
-    case k:                                                                                    \
-        return fx_mul_h##k(a, b, status);
-    switch (s) { FX_SHIFTS(FX_CASE_N) }
-#undef FX_CASE_N
-#endif
-    return fx_mul_shr_c(a, b, s, status);
+    return s >= 1u && s <= 62u ? fx_mul_shr_c(a, b, s, status) : 0;
 }
+#endif
 
 /* fx_mul16 out of line, for the native tests (tests/native/test_fixmath.py) to call. */
 int32_t fx_mul16_c(int32_t a, int16_t b, uint8_t s, uint8_t *status)

@@ -143,9 +143,11 @@ FX_MUL_KERNEL(fx_mul_rs, a, fx_mul_rs_c)
  * STLQF and RLS. */
 FX_MUL_KERNEL(fx_mul_shr, h, fx_mul_shr_c)
 
-/* fx_mul_shr for a shift known only at run time (1 <= s <= 62): on the AVR a switch to the
- * assembly entry for that shift, so the product is still ~150 cycles and the same bits. */
-int32_t fx_mul_shr_n(int32_t a, int32_t b, uint8_t s, uint8_t *status);
+/* fx_mul_shr for a shift known only at run time, 1 <= s <= 62 (0 outside): on the AVR a
+ * jump through a table to the assembly entry for that shift (fx_mul_avr.S), so the product
+ * is still ~165 cycles and the same bits. status before s: the entry finds a, b and status
+ * where it takes them. */
+int32_t fx_mul_shr_n(int32_t a, int32_t b, uint8_t *status, uint8_t s);
 
 /* a · b · 2^-s for an int16 b (1 <= s <= 30), ties away from zero like fx_mul_rs, and the
  * same bits: two 16 × 16 hardware products and byte shifts, no int64. Only a = INT32_MIN,

@@ -229,3 +229,34 @@ ENTRIES(33) $ ENTRIES(34) $ ENTRIES(35) $ ENTRIES(36) $ ENTRIES(37) $ ENTRIES(38
 ENTRIES(41) $ ENTRIES(42) $ ENTRIES(43) $ ENTRIES(44) $ ENTRIES(45) $ ENTRIES(46) $ ENTRIES(47) $ ENTRIES(48)
 ENTRIES(49) $ ENTRIES(50) $ ENTRIES(51) $ ENTRIES(52) $ ENTRIES(53) $ ENTRIES(54) $ ENTRIES(55) $ ENTRIES(56)
 ENTRIES(57) $ ENTRIES(58) $ ENTRIES(59) $ ENTRIES(60) $ ENTRIES(61) $ ENTRIES(62)
+
+; fx_mul_shr_n(a, b, status, s): fx_mul_hN for a shift known only at run time, by a jump
+; through a table of the entries (in .progmem, below 64 KB: LPM with a 16-bit Z; gs()
+; lets the linker add a stub where an entry lies past ijmp's 128 KB). a, b and status sit
+; where the entry takes them, so it is a jump, not a call: ~15 cycles more than a fixed
+; shift. s outside 1..62 gives 0 (the C twin's contract).
+        .section .progmem.fx_mul_h_table, "a", @progbits
+fx_mul_h_table:
+        .irp    n, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18, 19, 20, 21, 22, 23, 24, 25, 26, 27, 28, 29, 30, 31, 32, 33, 34, 35, 36, 37, 38, 39, 40, 41, 42, 43, 44, 45, 46, 47, 48, 49, 50, 51, 52, 53, 54, 55, 56, 57, 58, 59, 60, 61, 62
+        .word   gs(fx_mul_h\n)
+        .endr
+
+        .section .text.fx_mul_shr_n, "ax", @progbits
+        .global fx_mul_shr_n
+fx_mul_shr_n:
+        mov     r30, r14        ; s - 1, in 0..61
+        dec     r30
+        cpi     r30, 62
+        brsh    1f
+        lsl     r30             ; the entry's word in the table
+        clr     r31
+        subi    r30, lo8(-(fx_mul_h_table))
+        sbci    r31, hi8(-(fx_mul_h_table))
+        lpm     r0, Z+
+        lpm     r31, Z
+        mov     r30, r0
+        ijmp
+1:      clr     r22
+        clr     r23
+        movw    r24, r22
+        ret
