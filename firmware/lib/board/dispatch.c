@@ -36,7 +36,8 @@ static const request_t unsolicited = {0, UNSOLICITED_SEQ, NULL, 0};
 static struct {
     frame_rx_t rx; /* the request being received, decoded and checked byte by byte */
     uint8_t body[VEHIL_MAX_BODY]; /* replies other than PONG and RESULT are packed here */
-    const estimator_t *estimator; /* NULL until a CONFIG succeeds */
+    const estimator_t *estimator; /* NULL until a CONFIG succeeds, then &loaded */
+    estimator_t loaded;           /* the configured descriptor, copied from flash */
     uint8_t mode;
     uint16_t probe_cycles; /* cost of reading the cycle counter, subtracted from steps */
     uint16_t overruns_reported;
@@ -180,8 +181,8 @@ static void on_config(const request_t *r)
     }
     msg_config_t cfg;
     msg_config_unpack(r->body, &cfg);
-    const estimator_t *est = estimator_by_id(cfg.estimator);
-    if (est == NULL) {
+    estimator_t desc, *est = &desc;
+    if (!estimator_load(estimator_index(cfg.estimator), est)) {
         send_error(r, ERR_UNKNOWN_ESTIMATOR, cfg.estimator);
         return;
     }
@@ -200,7 +201,8 @@ static void on_config(const request_t *r)
         send_error(r, ERR_BAD_PARAM, (uint16_t)(bad - 1u));
         return;
     }
-    core.estimator = est;
+    core.loaded = desc;
+    core.estimator = &core.loaded;
     core.mode = cfg.mode;
     results_clear();
     send_ack(r);
@@ -325,22 +327,21 @@ static void on_get_estimator(const request_t *r)
         send_error(r, ERR_BAD_LENGTH, MSG_GET_ESTIMATOR_FIXED_SIZE);
         return;
     }
-    const estimator_t *est = estimator_at(r->body[0]);
-    if (est == NULL) {
+    estimator_t est;
+    if (!estimator_load(r->body[0], &est)) {
         send_error(r, ERR_BAD_PARAM, 0);
         return;
     }
     msg_estimator_t e = {
         .index = r->body[0],
-        .id = est->id,
-        .modes = est->modes,
-        .n_inputs = est->n_inputs,
-        .n_outputs = est->n_outputs,
-        .n_params = est->n_params,
+        .id = est.id,
+        .modes = est.modes,
+        .n_inputs = est.n_inputs,
+        .n_outputs = est.n_outputs,
+        .n_params = est.n_params,
     };
     msg_estimator_pack(&e, core.body);
-    size_t name_len = strlen(est->name);
-    memcpy(core.body + MSG_ESTIMATOR_FIXED_SIZE, est->name, name_len);
+    uint8_t name_len = estimator_name(r->body[0], core.body + MSG_ESTIMATOR_FIXED_SIZE);
     send(r, MSG_ESTIMATOR, (uint8_t)(MSG_ESTIMATOR_FIXED_SIZE + name_len));
 }
 

@@ -325,7 +325,7 @@ static uint8_t acc_kf_step(void *state, const uint8_t *in, uint8_t in_len, uint8
     return st->mode == MODE_F32 ? step_f32(st, in, out) : step_q(st, in, out);
 }
 
-const estimator_t acc_kf_estimator = {
+const ROM estimator_t acc_kf_estimator = {
     .id = ACC_KF_ID,
     .name = "acc_kf",
     .modes = (1u << MODE_F32) | (1u << MODE_FIXED),

@@ -77,6 +77,6 @@ typedef struct {
     } u;
 } acc_kf_state_t;
 
-extern const estimator_t acc_kf_estimator;
+extern const ROM estimator_t acc_kf_estimator;
 
 #endif

@@ -39,6 +39,6 @@ typedef struct {
     } u;
 } eso_state_t;
 
-extern const estimator_t eso_estimator;
+extern const ROM estimator_t eso_estimator;
 
 #endif

@@ -7,13 +7,16 @@
 #include <stdint.h>
 
 #include "proto/messages.h"
+#include "rom/rom.h"
 
 #define ESTIMATOR_VALUE_SIZE 4u
 #define ESTIMATOR_ANY_LENGTH 0u /* n_inputs of an estimator that takes any body */
+#define ESTIMATOR_NAME_SIZE 16u /* the name's bytes, its NUL included */
 
+/* A descriptor lives in flash: `const ROM estimator_t NAME_estimator = {...};`. The
+ * registry copies what the dispatcher needs into RAM (estimator_load), the name aside. */
 typedef struct {
     uint8_t id;            /* stable number on the wire */
-    const char *name;      /* short, lower case; the host's registry key */
     uint8_t modes;         /* bitmask of 1 << MODE_* */
     uint8_t n_inputs;      /* values per SAMPLE, or ESTIMATOR_ANY_LENGTH */
     uint8_t n_outputs;     /* values per RESULT (ignored for ESTIMATOR_ANY_LENGTH) */
@@ -27,12 +30,18 @@ typedef struct {
      * *out_len is set to the bytes written. */
     uint8_t (*step)(void *state, const uint8_t *in, uint8_t in_len, uint8_t *out,
                     uint8_t *out_len);
+    char name[ESTIMATOR_NAME_SIZE]; /* short, lower case; the host's registry key. Last:
+                                       estimator_load leaves it in flash */
 } estimator_t;
 
-/* Registry: estimator_at(i) for i < estimator_count(), or NULL. */
+/* The registry: indices 0 .. estimator_count() - 1. */
 uint8_t estimator_count(void);
-const estimator_t *estimator_at(uint8_t index);
-const estimator_t *estimator_by_id(uint8_t id);
+/* Index of the estimator with this wire id, or estimator_count() if none. */
+uint8_t estimator_index(uint8_t id);
+/* Descriptor `index` into RAM, all but its name; 0 if there is none. */
+uint8_t estimator_load(uint8_t index, estimator_t *out);
+/* Its name's bytes (no NUL) into buf; returns how many. */
+uint8_t estimator_name(uint8_t index, uint8_t *buf);
 
 /* The one state area all estimators share (only one is configured at a time). */
 void *estimator_state(void);

@@ -22,6 +22,6 @@ typedef struct {
     uint8_t started;
 } ev_ekf_state_t;
 
-extern const estimator_t ev_ekf_estimator;
+extern const ROM estimator_t ev_ekf_estimator;
 
 #endif

@@ -142,7 +142,7 @@ static uint8_t ev_ekf3_step(void *state, const uint8_t *in, uint8_t in_len, uint
     return (uint8_t)(status | ev_outputs(s->x, s->fy, out));
 }
 
-const estimator_t ev_ekf3_estimator = {
+const ROM estimator_t ev_ekf3_estimator = {
     .id = EV_EKF3_ID,
     .name = "ev_ekf3",
     .modes = 1u << MODE_F32,

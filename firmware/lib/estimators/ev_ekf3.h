@@ -27,6 +27,6 @@ typedef struct {
     uint8_t started;
 } ev_ekf3_state_t;
 
-extern const estimator_t ev_ekf3_estimator;
+extern const ROM estimator_t ev_ekf3_estimator;
 
 #endif

@@ -192,7 +192,7 @@ static uint8_t ev_ukf_step(void *state, const uint8_t *in, uint8_t in_len, uint8
     return (uint8_t)(status | ev_outputs(s->x, s->x + 3, out));
 }
 
-const estimator_t ev_ukf_estimator = {
+const ROM estimator_t ev_ukf_estimator = {
     .id = EV_UKF_ID,
     .name = "ev_ukf",
     .modes = 1u << MODE_F32,

@@ -28,6 +28,6 @@ typedef struct {
     uint8_t started;
 } ev_ukf_state_t;
 
-extern const estimator_t ev_ukf_estimator;
+extern const ROM estimator_t ev_ukf_estimator;
 
 #endif

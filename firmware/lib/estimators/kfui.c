@@ -233,7 +233,7 @@ static uint8_t kfui_configure(void *state, uint8_t mode, const uint8_t *params)
     return 0;
 }
 
-const estimator_t kfui_estimator = {
+const ROM estimator_t kfui_estimator = {
     .id = KFUI_ID,
     .name = "kfui",
     .modes = 1u << MODE_F32,

@@ -32,6 +32,6 @@ typedef struct {
     float x[4], P[4][4], d; /* x̂, P (kept exactly symmetric), û* = x̂_r */
 } kfui_state_t;
 
-extern const estimator_t kfui_estimator;
+extern const ROM estimator_t kfui_estimator;
 
 #endif

@@ -185,7 +185,7 @@ static uint8_t manf_step(void *state, const uint8_t *in, uint8_t in_len, uint8_t
     return st->mode == MODE_F32 ? step_f32(st, in, out) : step_q(st, in, out);
 }
 
-const estimator_t manf_estimator = {
+const ROM estimator_t manf_estimator = {
     .id = MANF_ID,
     .name = "manf",
     .modes = (1u << MODE_F32) | (1u << MODE_FIXED),

@@ -54,6 +54,6 @@ typedef struct {
     } u;
 } manf_state_t;
 
-extern const estimator_t manf_estimator;
+extern const ROM estimator_t manf_estimator;
 
 #endif

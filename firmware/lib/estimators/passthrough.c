@@ -21,7 +21,7 @@ static uint8_t passthrough_step(void *state, const uint8_t *in, uint8_t in_len, 
     return 0;
 }
 
-const estimator_t passthrough_estimator = {
+const ROM estimator_t passthrough_estimator = {
     .id = PASSTHROUGH_ID,
     .name = "passthrough",
     .modes = (1u << MODE_F32) | (1u << MODE_FIXED),

@@ -11,6 +11,6 @@ typedef struct {
     uint8_t unused; /* C99 forbids empty structs */
 } passthrough_state_t;
 
-extern const estimator_t passthrough_estimator;
+extern const ROM estimator_t passthrough_estimator;
 
 #endif

@@ -37,7 +37,7 @@ static union {
 #endif
 } state;
 
-static const estimator_t *const registry[] = {
+static const ROM estimator_t *const ROM registry[] = {
     &passthrough_estimator,
     &acc_kf_estimator,
     &manf_estimator,
@@ -55,19 +55,37 @@ static const estimator_t *const registry[] = {
 
 uint8_t estimator_count(void) { return (uint8_t)(sizeof registry / sizeof registry[0]); }
 
-const estimator_t *estimator_at(uint8_t index)
+static const estimator_t *entry(uint8_t index)
 {
-    return index < estimator_count() ? registry[index] : NULL;
+    return (const estimator_t *)rom_ptr((const void *const *)&registry[index]);
 }
 
-const estimator_t *estimator_by_id(uint8_t id)
+uint8_t estimator_index(uint8_t id)
 {
-    for (uint8_t i = 0; i < estimator_count(); i++) {
-        if (registry[i]->id == id) {
-            return registry[i];
-        }
+    uint8_t i = 0;
+    while (i < estimator_count() && rom_u8(&entry(i)->id) != id) {
+        i++;
     }
-    return NULL;
+    return i;
+}
+
+uint8_t estimator_load(uint8_t index, estimator_t *out)
+{
+    if (index >= estimator_count()) {
+        return 0;
+    }
+    rom_copy(out, entry(index), offsetof(estimator_t, name));
+    return 1;
+}
+
+uint8_t estimator_name(uint8_t index, uint8_t *buf)
+{
+    const char *name = entry(index)->name;
+    uint8_t n = 0;
+    while (n < ESTIMATOR_NAME_SIZE - 1u && (buf[n] = rom_u8((const uint8_t *)&name[n])) != 0u) {
+        n++;
+    }
+    return n;
 }
 
 void *estimator_state(void) { return &state; }

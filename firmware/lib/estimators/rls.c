@@ -408,7 +408,7 @@ static uint8_t rls_step(void *state, const uint8_t *in, uint8_t in_len, uint8_t 
     return s->mode == MODE_F32 ? step_f32(s, in, out) : step_q(s, in, out);
 }
 
-const estimator_t rls_estimator = {
+const ROM estimator_t rls_estimator = {
     .id = RLS_ID,
     .name = "rls",
     .modes = (1u << MODE_F32) | (1u << MODE_FIXED),

@@ -44,6 +44,6 @@ typedef struct {
     } u;
 } rls_state_t;
 
-extern const estimator_t rls_estimator;
+extern const ROM estimator_t rls_estimator;
 
 #endif

@@ -636,7 +636,7 @@ static uint8_t stlqf_step(void *state, const uint8_t *in, uint8_t in_len, uint8_
     return s->mode == MODE_F32 ? step_f32(s, in, out) : step_q(s, in, out);
 }
 
-const estimator_t stlqf_estimator = {
+const ROM estimator_t stlqf_estimator = {
     .id = STLQF_ID,
     .name = "stlqf",
     .modes = (1u << MODE_F32) | (1u << MODE_FIXED),

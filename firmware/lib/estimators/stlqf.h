@@ -70,6 +70,6 @@ typedef struct {
     uint8_t mode, n_hist, n_rows, head;
 } stlqf_state_t;
 
-extern const estimator_t stlqf_estimator;
+extern const ROM estimator_t stlqf_estimator;
 
 #endif

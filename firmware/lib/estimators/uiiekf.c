@@ -341,7 +341,7 @@ static uint8_t uiiekf_configure(void *state, uint8_t mode, const uint8_t *params
 
 static void uiiekf_reset(void *state) { reset(state); }
 
-const estimator_t uiiekf_estimator = {
+const ROM estimator_t uiiekf_estimator = {
     .id = UIIEKF_ID,
     .name = "uiiekf",
     .modes = 1u << MODE_F32,

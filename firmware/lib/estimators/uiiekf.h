@@ -38,6 +38,6 @@ typedef struct {
     uint8_t started;
 } uiiekf_state_t;
 
-extern const estimator_t uiiekf_estimator;
+extern const ROM estimator_t uiiekf_estimator;
 
 #endif

@@ -83,6 +83,16 @@ static inline float rom_float(const float *p)
 #endif
 }
 
+/* A pointer stored in flash (a table of addresses). */
+static inline const void *rom_ptr(const void *const *p)
+{
+#if defined(__AVR__)
+    return (const void *)rom_u16((const uint16_t *)p);
+#else
+    return *p;
+#endif
+}
+
 /* n bytes from flash to RAM. */
 static inline void rom_copy(void *dst, const void *src, size_t n)
 {
