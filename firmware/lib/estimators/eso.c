@@ -6,10 +6,11 @@
 #include "fixmath/fixmath.h"
 #include "proto/wire.h"
 
-enum { P_T, P_EPS, P_VARIANT, N_OWN };
+enum { P_T, P_EPS, P_VARIANT, P_DESIGN, P_ROAD_FROM, N_OWN };
 #define N_PARAMS (N_OWN + SUSP_ECU_N_PARAMS)
 
-static const ROM param_range_t ranges[N_OWN] = {{1e-4f, 0.05f, 30}, {0.02f, 2.0f, 24}, {0.0f, 1.0f, 0}};
+static const ROM param_range_t ranges[N_OWN] = {
+    {1e-4f, 0.05f, 30}, {0.001f, 2.0f, 24}, {0.0f, 1.0f, 0}, {0.0f, 1.0f, 0}, {0.0f, 1.0f, 0}};
 
 /* -- float32 ------------------------------------------------------------- */
 
@@ -40,7 +41,8 @@ static uint8_t step_f32(eso_state_t *st, const uint8_t *in, uint8_t *out)
     s->fnl = st->variant ? fnl : 0.0f;
     susp_est_f32_t est = {z[0], z[1], z[3], z[4], z[2] - s->fnl / m->m_s, z[5] + s->fnl / m->m_us,
                           0.0f};
-    float strut = fnl + m->k1 * dx + m->c1 * dv;
+    /* the strut force: the nominal strut at x̂, or the body's m_s ẍ_s = u - f (road_from) */
+    float strut = st->road_from ? -m->m_s * est.F1 : fnl + m->k1 * dx + m->c1 * dv;
     est.x_r = est.x_us + (m->m_us * est.F2 - strut) / m->k_us;
     if (status == 0) {
         s->ecu.u = susp_ctrl_step_f32(&s->ecu.ctrl, &est, &status);
@@ -88,10 +90,15 @@ static uint8_t step_q(eso_state_t *st, const uint8_t *in, uint8_t *out)
         est.F1 = fx_sub(z[2], fx_mul(s->fnl, 16, m->inv_m_s, 36, 20, &status), &status);
         est.F2 = fx_add(z[5], fx_mul(s->fnl, 16, m->inv_m_us, 36, 20, &status), &status);
     }
-    int32_t strut = fx_add(fnl, fx_add(fx_mul(m->k1, 8, dx, 28, 16, &status),
-                                       fx_mul(m->c1, 16, dv, 24, 16, &status), &status),
-                           &status);
-    int32_t tire = fx_sub(fx_mul(m->m_us, 16, est.F2, 20, 16, &status), strut, &status);
+    int32_t tire = fx_mul(m->m_us, 16, est.F2, 20, 16, &status); /* N Q16 */
+    if (st->road_from) {
+        tire = fx_add(tire, fx_mul(m->m_s, 16, est.F1, 20, 16, &status), &status);
+    } else {
+        int32_t strut = fx_add(fnl, fx_add(fx_mul(m->k1, 8, dx, 28, 16, &status),
+                                           fx_mul(m->c1, 16, dv, 24, 16, &status), &status),
+                               &status);
+        tire = fx_sub(tire, strut, &status);
+    }
     est.x_r = fx_add(est.x_us, fx_mul(tire, 16, m->inv_k_us, 44, 28, &status), &status);
     s->ecu.u = susp_ctrl_step_q(&s->ecu.ctrl, &est, &status);
     susp_ecu_put_q(out, &est, s->ecu.u);
@@ -122,11 +129,18 @@ static uint8_t eso_configure(void *state, uint8_t mode, const uint8_t *params)
         return bad;
     }
     float T = param_value(params, P_T, mode, 30);
-    float w = 1.0f / param_value(params, P_EPS, mode, 24);
+    float eps = param_value(params, P_EPS, mode, 24);
+    /* design 1 puts the Euler loop's error poles at e^(-T/ε) (docs/estimators/eso.md) */
+    float w = param_value(params, P_DESIGN, mode, 0) >= 0.5f ? (1.0f - expf(-T / eps)) / T
+                                                            : 1.0f / eps;
     eso_f32_t f = {.T = T, .g = {T * 3.0f * w, T * 3.0f * w * w, T * w * w * w}};
+    if (mode != MODE_F32 && (f.g[1] >= 2048.0f || f.g[2] >= 32768.0f)) {
+        return P_EPS + 1u; /* T β2, T β3 past their Q20, Q16: a larger ε or T */
+    }
     susp_ecu_configure_f32(&f.ecu, params, N_OWN, mode, T);
     st->mode = mode;
     st->variant = param_value(params, P_VARIANT, mode, 0) >= 0.5f;
+    st->road_from = param_value(params, P_ROAD_FROM, mode, 0) >= 0.5f;
     if (mode == MODE_F32) {
         st->u.f32 = f;
     } else {

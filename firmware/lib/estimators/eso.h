@@ -1,11 +1,13 @@
 /* Seed 003's extended state observer inside the quarter-car ECU (note §1.4): two 3-state
  * observers (eq. 12) on the displacements the conditioning integrates, β = 3/ε, 3/ε², 1/ε³
- * (error poles at -1/ε), Euler at T. Variant A: no model inside (F̂ = z3, z6). Variant B:
+ * (error poles at -1/ε), Euler at T; design 1: w = (1 - e^(-T/ε))/T for 1/ε, which puts the
+ * Euler loop's own poles at e^(-T/ε). Variant A: no model inside (F̂ = z3, z6). Variant B:
  * the nominal strut's nonlinear terms inside, the rest left to z3, z6 (see eso.py).
- * x̂_r = x̂_us + (m_us F̂2 - f_s - f_d)/k_us. Then the predictive controller.
+ * x̂_r = x̂_us + (m_us F̂2 - f_s - f_d)/k_us, the strut force f_s + f_d from the nominal strut
+ * at x̂ or (road_from) -m_s F̂1. Then the predictive controller.
  *
  * Inputs  a_s, a_us [m/s²] Q16.   Outputs see susp_ecu.h.
- * Params  T Q30, ε Q24, variant Q0, then the ECU tail (susp_ecu.h).
+ * Params  T Q30, ε Q24, variant Q0, design Q0, road_from Q0, then the ECU tail (susp_ecu.h).
  * float32 (step_f32) and fixed point (step_q): z Q28 (m), Q24 (m/s), Q20 (m/s²). */
 #ifndef VEHIL_ESTIMATORS_ESO_H
 #define VEHIL_ESTIMATORS_ESO_H
@@ -32,7 +34,7 @@ typedef struct {
 } eso_q_t;
 
 typedef struct {
-    uint8_t mode, variant;
+    uint8_t mode, variant, road_from;
     union {
         eso_f32_t f32;
         eso_q_t q;

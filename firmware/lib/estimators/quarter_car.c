@@ -28,6 +28,7 @@ void qcar_q_from_f32(qcar_q_t *q, const qcar_f32_t *m, uint8_t *status)
         .inv_m_s = fx_from_float(1.0f / m->m_s, 36, status),
         .inv_m_us = fx_from_float(1.0f / m->m_us, 36, status),
         .inv_k_us = fx_from_float(1.0f / m->k_us, 44, status),
+        .m_s = fx_from_float(m->m_s, 16, status),
         .m_us = fx_from_float(m->m_us, 16, status),
     };
 }

@@ -16,10 +16,10 @@ typedef struct {
 } qcar_f32_t;
 
 /* Fixed point: stiffnesses Q8 (N/m, N/m², N/m³), dampings Q16, masses as 1/m Q36
- * (1/(m s²) per N), 1/k_us Q44 (m/N), m_us Q16. */
+ * (1/(m s²) per N), 1/k_us Q44 (m/N), m_s and m_us Q16. */
 typedef struct {
     int32_t k1, k2, k3, k_us, c1, c2;
-    int32_t inv_m_s, inv_m_us, inv_k_us, m_us;
+    int32_t inv_m_s, inv_m_us, inv_k_us, m_s, m_us;
 } qcar_q_t;
 
 extern const ROM param_range_t qcar_ranges[QCAR_N_PARAMS];

@@ -4,7 +4,12 @@ Two 3-state observers (note §1.4, eq. 12), one per subsystem, fed with the disp
 the conditioning chain integrates from the two accelerometers. Bandwidth
 parameterisation: the error dynamics are (s + 1/ε)³.
 - Variant A (literal, "total disturbance"): no model inside; β = 3/ε, 3/ε², 1/ε³;
-  F̂1 = z3, F̂2 = z6 and x̂_r = x̂_us + (m_us F̂2 - f_s - f_d)/k_us (from F2 = f2 + d1 x_r).
+  F̂1 = z3, F̂2 = z6 and x̂_r = x̂_us + (m_us F̂2 - f_s - f_d)/k_us (from F2 = f2 + d1 x_r),
+  the strut force f_s + f_d from the nominal strut at x̂ (the paper), or, with
+  `road_from` = 1, from the body's own equation m_s F1 = -(f_s + f_d), which needs no
+  strut model (friction, a spring of another rate: docs/estimators/eso.md).
+- `design` = 1 computes the gains for the discrete loop the board runs (Euler at T), its
+  error poles at e^{-T/ε}: the paper's 3/ε, 3/ε², 1/ε³ place them only for T << ε.
 - Variant B (model-assisted, "model updating"): the nominal strut's nonlinear terms
   f_nl = k2 Δx² + k3 Δx³ + c2 Δẋ² inside both observers; the linear strut terms and the
   tire are left to z3 and z6, so the error dynamics at equilibrium stay (s + 1/ε)³ with the
@@ -23,6 +28,7 @@ predictive controller, from the two accelerations to the estimates, x̂_r and u.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from typing import NamedTuple, Protocol
 
@@ -37,12 +43,28 @@ from vehil.estimators.base import EstimatorSpec, Param, Signal
 from vehil.models.quarter_car import QuarterCar, model_params, nominal
 
 VARIANT_A, VARIANT_B = 0, 1
+DESIGN_PAPER, DESIGN_DISCRETE = 0, 1
+ROAD_FROM_MODEL, ROAD_FROM_BODY = 0, 1
 
 
-def gains(eps: float) -> np.ndarray:
-    """[β1..β6] = 3/ε, 3/ε², 1/ε³ for both observers (the theorem of §1.4)."""
-    w = 1.0 / eps
+def gains(eps: float, T: float = 0.0, design: int = 0) -> np.ndarray:
+    """[β1..β6] = 3w, 3w², w³ for both observers. Design 0 (the theorem of §1.4): w = 1/ε,
+    error poles at -1/ε for the continuous observer, which Euler at T only approximates.
+    Design 1: w = (1 - e^{-T/ε})/T, which puts the Euler loop's own error poles (the
+    step's z += T ż) at e^{-T/ε}, triple, for any T/ε: docs/estimators/eso.md."""
+    w = (1.0 - math.exp(-T / eps)) / T if design == DESIGN_DISCRETE else 1.0 / eps
     return np.array([3 * w, 3 * w * w, w**3] * 2)
+
+
+def gains_fit_fixed(p: Mapping[str, float], mode: str) -> str | None:
+    """The spec's rule, CONFIG's too: FIXED holds T β2 in Q20 and T β3 in Q16."""
+    g = p["T"] * gains(p["eps"], p["T"], int(p["design"]))
+    if mode == "FIXED" and (g[1] >= 2048 or g[2] >= 32768):
+        return (
+            f"eps = {p['eps']:g} s gives T β2 = {g[1]:.4g}, T β3 = {g[2]:.4g} at T = {p['T']:g} s: "
+            "past FIXED's ±2048 and ±32768; a larger eps (or design 1)"
+        )
+    return None
 
 
 def strut_nonlinear(m: QuarterCar, x: np.ndarray) -> float:
@@ -57,7 +79,8 @@ class Eso:
         self.m = nominal(p)
         self.T = p["T"]
         self.variant = int(p["variant"])
-        self.beta = gains(p["eps"])
+        self.beta = gains(p["eps"], self.T, int(p["design"]))
+        self.road_from = int(p["road_from"])
         self.z = np.zeros(6)
 
     def step(self, y_s: float, y_us: float, u: float) -> np.ndarray:
@@ -88,7 +111,8 @@ class Eso:
         if self.variant == VARIANT_B:
             fnl = strut_nonlinear(m, x)
             F1, F2 = F1 - fnl / m.m_s, F2 + fnl / m.m_us
-        return x, F1, F2, x[2] + (m.m_us * F2 - m.strut(x)) / m.k_us
+        strut = -m.m_s * F1 if self.road_from == ROAD_FROM_BODY else m.strut(x)
+        return x, F1, F2, x[2] + (m.m_us * F2 - strut) / m.k_us
 
 
 class NoUpdate:
@@ -204,12 +228,31 @@ SPEC = register(
         reference=ecu,
         params=(
             T_PARAM,
-            Param("eps", "s", q=24, default=0.1, lo=0.02, hi=2.0, doc="ESO ε: poles at -1/ε"),
+            Param("eps", "s", q=24, default=0.1, lo=0.001, hi=2.0, doc="ESO ε: poles at -1/ε"),
             Param("variant", "1", q=0, default=VARIANT_A, lo=0, hi=1, doc="0 A literal, 1 B"),
+            Param(
+                "design",
+                "1",
+                q=0,
+                default=DESIGN_PAPER,
+                lo=0,
+                hi=1,
+                doc="gains: 0 the paper's 3/ε, 3/ε², 1/ε³; 1 the Euler loop's poles at e^(-T/ε)",
+            ),
+            Param(
+                "road_from",
+                "1",
+                q=0,
+                default=ROAD_FROM_MODEL,
+                lo=0,
+                hi=1,
+                doc="x̂_r's strut force: 0 the nominal strut at x̂ (paper), 1 -m_s F̂1",
+            ),
             *conditioning_params(),
             *model_params(),
             *CONTROL_PARAMS,
         ),
+        rules=(gains_fit_fixed,),
         paper="003-eso-quarter-car",
     )
 )
