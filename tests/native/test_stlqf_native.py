@@ -1,7 +1,11 @@
 """STLQF and RLS in C (float32) against their float64 references (seed 002)."""
 
+import dataclasses
+
+import numpy as np
 import pytest
 
+from vehil import scenario
 from vehil.boards import open_board
 from vehil.errors import BoardError
 from vehil.estimators import stlqf
@@ -28,6 +32,31 @@ def test_c_follows_the_reference(run_scenario, name, output, limit) -> None:  # 
     result = run_scenario(name, board="native", duration=45.0)
     result.assert_passed()
     assert result.figures.outputs[output].reference.max_abs < limit
+
+
+@pytest.mark.parametrize("mode", ["F32", "FIXED"])
+def test_ill_conditioned_says_when_the_prior_holds_the_mass_not_the_data(
+    run_scenario, mode
+) -> None:  # noqa: ANN001, E501
+    """The paper's smooth-throttle drive leaves the window's system singular: μ = 1e-2 held
+    the mass ~940 kg off without a flag (a condition number cannot tell, μ bounds it).
+    The prior's share of m̂ says it; on a well-excited drive it stays low even with
+    μ = 1e-4 (where a condition threshold fired on 5990 of 6000 steps)."""
+    held = dataclasses.replace(scenario.load("paper"), mode=mode)
+    result = run_scenario(held, board="native", duration=30.0)
+    flagged = (result.run.status & stlqf.ILL_CONDITIONED) != 0
+    assert result.figures.outputs["m"].truth.rmse > 500
+    assert flagged.mean() > 0.6
+    reference = stlqf.Stlqf(held.params)
+    expected = []
+    for u in result.run.prepared.inputs:
+        reference.step(u)
+        expected.append(bool(reference.flags & stlqf.ILL_CONDITIONED))
+    assert np.mean(flagged == np.array(expected)) > 0.97
+    sc = scenario.load("heavy-rolling-fixed")
+    good = dataclasses.replace(sc, mode=mode, params=sc.params | {"mu": 1e-4})
+    result = run_scenario(good, board="native", duration=30.0)
+    assert result.figures.status["ILL_CONDITIONED"] <= 3
 
 
 def test_a_weight_matrix_that_is_not_positive_definite_is_refused_with_a11(built) -> None:  # noqa: ANN001

@@ -8,14 +8,14 @@
 #include "linalg/chol_q15.h"
 #include "proto/wire.h"
 
-enum { P_CHI1, P_CHI2, P_A11, P_A12, P_A13, P_A22, P_A23, P_A33, P_MU, P_COND, N_OWN };
+enum { P_CHI1, P_CHI2, P_A11, P_A12, P_A13, P_A22, P_A23, P_A33, P_MU, P_HELD, N_OWN };
 #define N_PARAMS (N_OWN + LONGIT_N_PARAMS)
 #define CENTRE (STLQF_ROWS - 1u - STLQF_WL) /* row of the window centre */
 
 static const ROM param_range_t ranges[N_OWN] = {
     {0.0f, 10.0f, 24},     {0.0f, 10.0f, 24},     {-100.0f, 100.0f, 24},
     {-100.0f, 100.0f, 24}, {-100.0f, 100.0f, 24}, {-100.0f, 100.0f, 24}, {-100.0f, 100.0f, 24},
-    {-100.0f, 100.0f, 24}, {0.0f, 1.0f, 30},      {1.0f, 1e9f, 0},
+    {-100.0f, 100.0f, 24}, {0.0f, 1.0f, 30},      {0.0f, 1.0f, 30},
 };
 
 /* Where the window's row j (oldest first) is in the ring. */
@@ -94,7 +94,7 @@ static void configure_f32(stlqf_f32_t *f, const longit_t *model, const uint8_t *
     f->c1 = get_f32(params + 4u * P_CHI1) / T;
     f->c2 = get_f32(params + 4u * P_CHI2) / (T * T);
     f->mu = get_f32(params + 4u * P_MU);
-    f->cond_flag = get_f32(params + 4u * P_COND);
+    f->held_max = get_f32(params + 4u * P_HELD);
     /* g/cos ε is constant, so its filtered columns are exact: τ g' + χ1 g'/T and g'. */
     float col[2][STLQF_ROWS];
     for (uint8_t j = 0; j < STLQF_ROWS; j++) {
@@ -180,22 +180,24 @@ static uint8_t solve_f32(stlqf_state_t *s, float *log_cond)
         g[a * 6u + a] += pull;
         rhs[a] += pull * prior;
     }
-    float cond;
-    if (!chol_solve_f32(g, rhs, 6, &cond)) {
+    float inv[6];
+    if (!chol_solve_f32(g, rhs, 6, inv)) {
         *log_cond = INFINITY;
         return STATUS_SINGULAR;
     }
-    /* The condition estimate of the scaled matrix: its pivots are L_ii² / G_ii. */
+    /* The condition estimate of the scaled matrix: its pivots are L_ii² / G_ii, compared
+     * as their reciprocals (products of 1 / L_ii, no division each). */
     float lo = 0.0f, hi = 0.0f;
     for (uint8_t a = 0; a < 6u; a++) {
-        float pivot = g[a * 6u + a] * g[a * 6u + a] / scale[a];
-        lo = (a == 0u || pivot < lo) ? pivot : lo;
-        hi = (a == 0u || pivot > hi) ? pivot : hi;
+        float inv_pivot = inv[a] * inv[a] * scale[a];
+        lo = (a == 0u || inv_pivot < lo) ? inv_pivot : lo;
+        hi = (a == 0u || inv_pivot > hi) ? inv_pivot : hi;
         f->theta[a] = rhs[a];
     }
-    cond = hi / lo;
-    *log_cond = log10f(cond);
-    return cond > f->cond_flag ? STATUS_ILL_CONDITIONED : 0u;
+    *log_cond = log10f(hi / lo);
+    /* The prior's share of m̂ (docs/estimators/stlqf.md): μ G_mm [(G + μ diag G)⁻¹]_mm. */
+    float held = f->mu * scale[STLQF_MASS] * chol_inv_diag_f32(g, inv, 6, STLQF_MASS);
+    return held > f->held_max ? STATUS_ILL_CONDITIONED : 0u;
 }
 
 /* ---- fixed point ---- */
@@ -344,7 +346,7 @@ static uint8_t configure_q(stlqf_q_t *q, const uint8_t *params, const int32_t ba
         return 1u + P_CHI2; /* χ2/T² past 2^20: the filter's products would not fit */
     }
     q->mu = param_q(params, P_MU);
-    q->log2_cond_flag = fx_log2_q24(param_q(params, P_COND), 0);
+    q->held_max = param_q(params, P_HELD);
     int16_t flat[STLQF_ROWS * 3];
     normalize(&band[0][0], flat, STLQF_ROWS * 3u, COL_LIMIT);
     memcpy(q->band, flat, sizeof flat);
@@ -496,7 +498,8 @@ static uint8_t solve_q(stlqf_state_t *s, int32_t *log_cond)
         *gaa = fx_add(*gaa, fx_mul_shr(q->mu, scale[a], 30, &st), &st); /* μ <= 1: < 1 */
     }
     int16_t l[36];
-    if (!chol_solve_q15(g, rhs, 6, l, &st)) {
+    int32_t inv[6];
+    if (!chol_solve_q15(g, rhs, 6, l, inv, &st)) {
         *log_cond = INT32_MAX;
         return (uint8_t)(st | STATUS_SINGULAR);
     }
@@ -510,7 +513,12 @@ static uint8_t solve_q(stlqf_state_t *s, int32_t *log_cond)
         q->theta[a] = fx_add(prior[a], step, &st);
     }
     *log_cond = fx_mul_shr(hi - lo, 323228497 /* log10 2, Q30 */, 30, &st);
-    return (uint8_t)(st | (hi - lo > q->log2_cond_flag ? STATUS_ILL_CONDITIONED : 0u));
+    /* The prior's share of m̂ (docs/estimators/stlqf.md), at most 1: μ G_mm [g⁻¹]_mm. A
+     * rounding that saturates it says "all prior", not a saturated estimate. */
+    uint8_t held_st = 0;
+    int32_t held = chol_inv_diag_q15(l, inv, 6, STLQF_MASS,
+                                     fx_mul_shr(q->mu, scale[STLQF_MASS], 30, &held_st), &held_st);
+    return (uint8_t)(st | (held > q->held_max || held_st ? STATUS_ILL_CONDITIONED : 0u));
 }
 
 /* ---- both ---- */

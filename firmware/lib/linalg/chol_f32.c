@@ -38,21 +38,17 @@ uint8_t chol_factor_f32(const float *a, uint8_t n, float *l)
     return factor(a, n, l, inv);
 }
 
-uint8_t chol_solve_f32(float *a, float *b, uint8_t n, float *cond)
+uint8_t chol_solve_f32(float *a, float *b, uint8_t n, float *inv)
 {
-    float inv[CHOL_F32_MAX_N];
     if (!factor(a, n, a, inv)) {
         return 0;
     }
-    float lo = inv[0], hi = inv[0];
     for (uint8_t i = 0; i < n; i++) { /* L y = b */
         float s = b[i];
         for (uint8_t k = 0; k < i; k++) {
             s -= a[i * n + k] * b[k];
         }
         b[i] = s * inv[i];
-        lo = inv[i] < lo ? inv[i] : lo;
-        hi = inv[i] > hi ? inv[i] : hi;
     }
     for (uint8_t i = n; i-- > 0u;) { /* Lᵀ x = y */
         float s = b[i];
@@ -61,7 +57,6 @@ uint8_t chol_solve_f32(float *a, float *b, uint8_t n, float *cond)
         }
         b[i] = s * inv[i];
     }
-    *cond = (hi / lo) * (hi / lo); /* (max L_ii / min L_ii)² */
     return 1;
 }
 
@@ -94,4 +89,18 @@ uint8_t chol_inv_f32(float *a, uint8_t n)
         }
     }
     return 1;
+}
+
+float chol_inv_diag_f32(const float *l, const float *inv, uint8_t n, uint8_t a)
+{
+    float w[CHOL_F32_MAX_N], sum = 0.0f;
+    for (uint8_t i = a; i < n; i++) {
+        float s = i == a ? 1.0f : 0.0f;
+        for (uint8_t k = a; k < i; k++) {
+            s -= l[i * n + k] * w[k];
+        }
+        w[i] = s * inv[i];
+        sum += w[i] * w[i];
+    }
+    return sum;
 }

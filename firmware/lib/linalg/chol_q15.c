@@ -43,9 +43,9 @@ static int32_t substitute(int32_t x, const int16_t *l, const int32_t *y, uint8_t
     return fx_mul_shr(s, inv, 16, status); /* 1 / l_ii in Q16 */
 }
 
-uint8_t chol_solve_q15(const int32_t *a, int32_t *b, uint8_t n, int16_t *l, uint8_t *status)
+uint8_t chol_solve_q15(const int32_t *a, int32_t *b, uint8_t n, int16_t *l, int32_t *inv,
+                       uint8_t *status)
 {
-    int32_t inv[CHOL_Q15_MAX_N]; /* 1 / l_jj, Q16 */
     for (uint8_t j = 0; j < n; j++) {
         for (uint8_t i = j; i < n; i++) {
             /* Q30; the sums stay below sqrt(a_ii a_jj) < 1 */
@@ -69,4 +69,16 @@ uint8_t chol_solve_q15(const int32_t *a, int32_t *b, uint8_t n, int16_t *l, uint
         b[i] = substitute(b[i], l + next * n + i, b + next, n, (uint8_t)(n - next), inv[i], status);
     }
     return 1;
+}
+
+int32_t chol_inv_diag_q15(const int16_t *l, const int32_t *inv, uint8_t n, uint8_t a, int32_t s,
+                          uint8_t *status)
+{
+    int32_t w[CHOL_Q15_MAX_N], sum = 0;
+    for (uint8_t i = a; i < n; i++) {
+        int32_t x = i == a ? (int32_t)isqrt((uint32_t)(s > 0 ? s : 0)) << 15 : 0; /* √s, Q30 */
+        w[i] = substitute(x, l + i * n + a, w + a, 1, (uint8_t)(i - a), inv[i], status);
+        sum = fx_add(sum, fx_mul_shr(w[i], w[i], 30, status), status);
+    }
+    return sum;
 }

@@ -22,7 +22,10 @@ both because its 6×6 system is nearly singular (note §9 and the addendum):
   the paper's unregularised solve. μ = 1e-2 by default: float32's rounding of the
   inputs, amplified ~1e4 by the error filter, needs it (float64 does well with 1e-4).
   Each step reports log10 of the solved matrix's condition estimate, and
-  ILL_CONDITIONED when it exceeds `cond_flag`.
+  ILL_CONDITIONED when the window's data do not determine the mass: the prior's share
+  of m̂ (μ [(G_s + μ I)⁻¹]_mm, 0 when the data alone fix it, 1 when the prior does)
+  exceeds `held_max`. A condition number cannot say this: μ bounds the regularised
+  system's near 1/μ whatever the data, and the unregularised one is 1e8 on good drives.
 
 The float64 reference below is the same step as the board's C (firmware/lib/
 estimators/stlqf.c); `exact_cond` keeps numpy's condition number of the scaled,
@@ -98,7 +101,15 @@ STLQF_PARAMS = (
         for ij, v in (("11", 5.0), ("12", 3.0), ("13", 2.0), ("22", 5.0), ("23", 3.0), ("33", 5.0))
     ),
     Param("mu", "1", q=30, default=1e-2, lo=0.0, hi=1.0, doc="Tikhonov weight (scaled)"),
-    Param("cond_flag", "1", q=0, default=100.0, lo=1.0, hi=1e9, doc="ILL_CONDITIONED above"),
+    Param(
+        "held_max",
+        "1",
+        q=30,
+        default=0.5,
+        lo=0.0,
+        hi=1.0,
+        doc="ILL_CONDITIONED above this prior's share of m̂",
+    ),
     *SHARED_PARAMS,
 )
 CODE_WEIGHTS = {"a11": 1.0, "a12": -1.0, "a13": -1.0, "a22": 2.0, "a23": 1.0, "a33": 3.0}
@@ -179,8 +190,8 @@ SINGULAR = 0x04  # STATUS_SINGULAR
 ILL_CONDITIONED = 0x10  # STATUS_ILL_CONDITIONED
 
 
-def cholesky_solve(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, float] | None:
-    """x with a x = b, and the condition estimate (max L_ii / min L_ii)²; None when a
+def cholesky_solve(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, float, np.ndarray] | None:
+    """x with a x = b, the condition estimate (max L_ii / min L_ii)² and L; None when a
     pivot is not positive. The board's chol_f32 does the same steps."""
     n = len(b)
     low = np.zeros_like(a)
@@ -198,7 +209,20 @@ def cholesky_solve(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, float] | N
     for i in reversed(range(n)):
         x[i] = (y[i] - low[i + 1 :, i] @ x[i + 1 :]) / low[i, i]
     diag = np.diag(low)
-    return x, float((diag.max() / diag.min()) ** 2)
+    return x, float((diag.max() / diag.min()) ** 2), low
+
+
+MASS = 1  # θ's entry of the mass at the window centre
+
+
+def prior_share(low: np.ndarray, mu: float, a: int = MASS) -> float:
+    """μ [(S + μ I)⁻¹]_aa from L L^T = S + μ I: the share of entry a that the prior
+    holds (the diagonal of I minus the resolution matrix), in [0, 1]; ‖L⁻¹ e_a‖² by a
+    forward substitution from row a, as the board does."""
+    w = np.zeros(len(low))
+    for i in range(a, len(low)):
+        w[i] = ((1.0 if i == a else 0.0) - low[i, a:i] @ w[a:i]) / low[i, i]
+    return float(mu * w @ w)
 
 
 class Stlqf:
@@ -213,6 +237,7 @@ class Stlqf:
         self.rows: list[np.ndarray] = []  # [ψ̃ (3), e (3), ζ] of the last ROWS samples
         self.exact_cond: list[float] = []
         self.flags = 0
+        self.held = 1.0  # the prior's share of m̂ in the last window
 
     def _filtered(self, x: np.ndarray, x1: np.ndarray, x2: np.ndarray) -> np.ndarray:
         """x + χ1 Δx/T + χ2 Δ²x/T² (α x + β x₋₁ + γ x₋₂ as differences)."""
@@ -261,9 +286,10 @@ class Stlqf:
                 self.flags |= SINGULAR
                 log_cond = math.inf
             else:
-                y, cond = solved
+                y, cond, low = solved
                 log_cond = math.log10(cond)
-                if cond > p["cond_flag"]:
+                self.held = prior_share(low, mu)
+                if self.held > p["held_max"]:
                     self.flags |= ILL_CONDITIONED
                 self.theta = d * y
         theta = self.theta[1::2]
