@@ -137,3 +137,24 @@ def test_tcs_and_abs_let_every_wheel_slip_and_catch_it(manoeuvre, sign) -> None:
     assert np.all((sign * kappa > 0.1).any(axis=1))  # each wheel slips at some point
     slipping = (sign * kappa > 0.1).mean()
     assert 0.01 < slipping < 0.3  # and the controller brings it back
+
+
+def test_the_plant_can_be_a_car_the_filters_do_not_know() -> None:
+    """Sine steering at 80 km/h: a longer relaxation length delays the lateral forces behind
+    the steering, load-sensitive tires and a softer B_y lower their peak, a heavier car
+    rolls slower to the same turn."""
+    ev4wd = plants.get("ev4wd")
+    base = {"manoeuvre": 1, "noise": 0, "steer_deg": 2.0}
+
+    def run(**over: float) -> dict[str, np.ndarray]:
+        trace = ev4wd.run({**base, **over}, 6.0, 0.01, 1)
+        return {"delta": trace.signals["delta"][300:], "fy1": trace.truth["fy1"][300:]}
+
+    def lag(d: dict[str, np.ndarray]) -> int:
+        x = np.correlate(d["fy1"] - d["fy1"].mean(), d["delta"] - d["delta"].mean(), "full")
+        return int(np.argmax(x)) - (len(d["delta"]) - 1)
+
+    shipped, relaxed = run(), run(sigma_y=1.5)
+    assert lag(relaxed) > lag(shipped)
+    softer = run(by_scale=0.7, load_sens=0.3)
+    assert np.abs(softer["fy1"]).max() < 0.95 * np.abs(shipped["fy1"]).max()

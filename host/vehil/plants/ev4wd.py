@@ -27,7 +27,18 @@ Manoeuvres (`manoeuvre`), each at `speed` km/h held by a PI speed controller:
 
 Sensors (`noise` = 1, production-like, note §5.2): a_x, a_y σ 0.1 m/s² with biases
 0.05 / -0.04 m/s²; γ σ 0.5 °/s with a 0.2 °/s bias; ω_i σ 0.2 rad/s (resolver); δ σ
-0.05°; motor torque σ 2 N·m. All are sampled, noise-free, with `noise` = 0.
+0.05°; motor torque σ 2 N·m. All are sampled, noise-free, with `noise` = 0; `noise`
+scales the σ (the biases stay).
+
+The car is the plant's own, not the filters' (their model is vehil.models.ev4wd; this
+module evaluates its tires itself). At the defaults it is the note's vehicle with the
+filters' tire coefficients; its mismatch: mass and yaw inertia (`m_scale`, `iz_scale`),
+the tires' B and C (`bx_scale`, `by_scale`, `cy_scale`), a load-sensitive friction
+(`load_sens`: μ_eff = μ (1 - load_sens (F_z - F_z0)/F_z0), F_z0 the static load, so a
+loaded tire grips less per newton, as real tires do), the lateral relaxation length
+`sigma_y` (the filters' is 0.4 m), a longitudinal one `sigma_x` (0: quasi-static), and
+load transfer through the body's roll and pitch with time constants `roll_tau`,
+`pitch_tau` (0: quasi-static, as the filters assume).
 """
 
 from __future__ import annotations
@@ -64,6 +75,27 @@ def dlc_path(x: float, offset: float, length: float) -> float:
     return offset * 0.5 * (1 + math.cos(math.pi * (x - x3) / length))
 
 
+def magic_formula(x: np.ndarray, b: float, c: float, e: float, d: np.ndarray) -> np.ndarray:
+    """Pacejka's D sin(C atan(B x - E (B x - atan(B x))))."""
+    bx = b * x
+    return d * np.sin(c * np.arctan(bx - e * (bx - np.arctan(bx))))
+
+
+def transfer_loads(ax: float, ay: float, m: float) -> np.ndarray:
+    """F_z,i: static plus the steady transfer of a body of mass m at accelerations ax, ay."""
+    wb, h = ev.WHEELBASE, ev.H_CG
+    front = m * ev.G * ev.L_R / (2 * wb) - m * ax * h / (2 * wb)
+    rear = m * ev.G * ev.L_F / (2 * wb) + m * ax * h / (2 * wb)
+    lat_f = m * ay * h * ev.L_R / (ev.TRACK * wb)
+    lat_r = m * ay * h * ev.L_F / (ev.TRACK * wb)
+    return np.maximum(np.array([front - lat_f, front + lat_f, rear - lat_r, rear + lat_r]), 0.0)
+
+
+def _lag(tau: float, dt: float) -> float:
+    """The share of the way a first-order lag of time constant tau moves in dt (1: none)."""
+    return 1.0 if tau <= 0 else 1.0 - math.exp(-dt / tau)
+
+
 def _simulate(p: Mapping[str, float], duration: float, T: float, seed: int) -> Trace:
     rng = np.random.default_rng(seed)
     n = int(round(duration / T))
@@ -81,6 +113,13 @@ def _simulate(p: Mapping[str, float], duration: float, T: float, seed: int) -> T
     cutting = np.zeros(4, bool)
     integ = 0.0
     lx, byw, st = ev.LX, ev.BYW, ev.STEERED
+    mass, i_z = ev.M * p["m_scale"], ev.I_Z * p["iz_scale"]
+    bx, by, cy = ev.BX * p["bx_scale"], ev.BY * p["by_scale"], ev.CY * p["cy_scale"]
+    fz0 = transfer_loads(0.0, 0.0, mass)
+    fz = fz0.copy()
+    fx = np.zeros(4)
+    k_roll, k_pitch = _lag(p["roll_tau"], T / sub), _lag(p["pitch_tau"], T / sub)
+    ax_l = ay_l = 0.0  # the accelerations the body's pitch and roll have reached
     out = np.zeros((n, 12))
     truth = np.zeros((n, 7 + 4))  # vx vy r fy1..4, kappa1..4
     for k in range(n):
@@ -110,8 +149,8 @@ def _simulate(p: Mapping[str, float], duration: float, T: float, seed: int) -> T
             else:
                 err = v_set - vx
                 integ += err * dt
-                resist = ev.DRAG * vx * vx + ev.M * ev.G * ev.F_ROLL
-                demand = ev.R_W * (resist + ev.M * (1.5 * err + 0.3 * integ)) / 4
+                resist = ev.DRAG * vx * vx + mass * ev.G * ev.F_ROLL
+                demand = ev.R_W * (resist + mass * (1.5 * err + 0.3 * integ)) / 4
             # Wheels: kinematics and slips.
             d = delta * st
             cd, sd = np.cos(d), np.sin(d)
@@ -125,28 +164,37 @@ def _simulate(p: Mapping[str, float], duration: float, T: float, seed: int) -> T
             cutting = np.where(np.abs(kappa) < SLIP_OFF, False, cutting)
             limit = np.clip(limit + np.where(cutting, -CUT_RATE, RESTORE_RATE) * dt, 0.0, T_MAX)
             tq = np.clip(demand, -limit, limit)
-            # Tires.
-            dmax = mu * ev.loads(ax, ay)
-            fx0 = ev.mf(kappa, ev.BX, ev.CX, ev.EX, dmax)
-            fx = ev.weight(alpha, ev.BXA, ev.CXA) * fx0
-            fy_qs = ev.weight(kappa, ev.BYK, ev.CYK) * ev.mf(alpha, ev.BY, ev.CY, ev.EY, dmax)
+            # Loads through the body's pitch and roll, then the tires.
+            ax_l += k_pitch * (ax - ax_l)
+            ay_l += k_roll * (ay - ay_l)
+            fz = transfer_loads(ax_l, ay_l, mass)
+            dmax = mu * fz * (1.0 - p["load_sens"] * (fz - fz0) / fz0)
+            fx0 = magic_formula(kappa, bx, ev.CX, ev.EX, dmax)
+            fx_qs = np.cos(ev.CXA * np.arctan(ev.BXA * alpha)) * fx0
+            fy_qs = np.cos(ev.CYK * np.arctan(ev.BYK * kappa)) * magic_formula(
+                alpha, by, cy, ev.EY, dmax
+            )
+            if p["sigma_x"] <= 0:
+                fx = fx_qs
             fX, fY = cd * fx - sd * fy, sd * fx + cd * fy
-            resist = ev.DRAG * vx * abs(vx) + ev.M * ev.G * ev.F_ROLL * math.tanh(vx / 0.5)
-            ax = (fX.sum() - resist) / ev.M
-            ay = fY.sum() / ev.M
+            resist = ev.DRAG * vx * abs(vx) + mass * ev.G * ev.F_ROLL * math.tanh(vx / 0.5)
+            ax = (fX.sum() - resist) / mass
+            ay = fY.sum() / mass
             mz = float((lx * fY - byw * fX).sum())
             if j == 0:
                 out[k] = (ax, ay, r, *w, delta, *tq)
                 truth[k] = (vx, vy, r, *fy, *kappa)
             # Euler step.
             w = np.maximum(w + dt * (tq - ev.R_W * fx) / ev.I_W, 0.0)
-            fy = fy + dt * np.abs(vix) / ev.SIGMA * (fy_qs - fy)
-            vx, vy, r = vx + dt * (ax + r * vy), vy + dt * (ay - r * vx), r + dt * mz / ev.I_Z
+            fy = fy + dt * np.abs(vix) / p["sigma_y"] * (fy_qs - fy)
+            if p["sigma_x"] > 0:
+                fx = fx + dt * np.abs(vix) / p["sigma_x"] * (fx_qs - fx)
+            vx, vy, r = vx + dt * (ax + r * vy), vy + dt * (ay - r * vx), r + dt * mz / i_z
             X += dt * (vx * math.cos(psi) - vy * math.sin(psi))
             Y += dt * (vx * math.sin(psi) + vy * math.cos(psi))
             psi += dt * r
-    if p["noise"] >= 0.5:
-        sd_in = np.array(
+    if p["noise"] > 0:
+        sd_in = p["noise"] * np.array(
             [ev.SD_ACC, ev.SD_ACC, ev.SD_GYRO, *[ev.SD_W] * 4, math.radians(0.05), *[2.0] * 4]
         )
         bias = np.zeros(12)
@@ -176,7 +224,17 @@ SPEC = register(
                 "steer_deg", "deg", default=1.5, lo=0.0, hi=20.0, doc="sine amplitude, road wheel"
             ),
             Param("steer_hz", "Hz", default=0.5, lo=0.01, hi=5.0, doc="sine frequency"),
-            Param("noise", "1", default=1, lo=0, hi=1, doc="1: production-like sensors"),
+            Param("noise", "1", default=1, lo=0, hi=10, doc="sensor σ × production-like"),
+            Param("m_scale", "1", default=1.0, lo=0.5, hi=2.0, doc="true mass / the note's"),
+            Param("iz_scale", "1", default=1.0, lo=0.5, hi=2.0, doc="true yaw inertia / note's"),
+            Param("bx_scale", "1", default=1.0, lo=0.3, hi=3.0, doc="tire B_x / the filters'"),
+            Param("by_scale", "1", default=1.0, lo=0.3, hi=3.0, doc="tire B_y / the filters'"),
+            Param("cy_scale", "1", default=1.0, lo=0.5, hi=1.8, doc="tire C_y / the filters'"),
+            Param("load_sens", "1", default=0.0, lo=0.0, hi=0.5, doc="μ's fall per load rise"),
+            Param("sigma_y", "m", default=ev.SIGMA, lo=0.05, hi=3.0, doc="lateral relaxation"),
+            Param("sigma_x", "m", default=0.0, lo=0.0, hi=3.0, doc="longit. relaxation, 0 none"),
+            Param("roll_tau", "s", default=0.0, lo=0.0, hi=2.0, doc="roll lag of load transfer"),
+            Param("pitch_tau", "s", default=0.0, lo=0.0, hi=2.0, doc="pitch lag of transfer"),
         ),
         signals=(*ev.INPUTS,),
         truth=(
