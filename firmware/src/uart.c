@@ -5,12 +5,16 @@
 #include <avr/wdt.h>
 #include <util/atomic.h>
 
-/* Shared with the interrupts in uart_isr.S. */
-volatile uint8_t uart_rx_buf[UART_RX_SIZE];
+/* Shared with the interrupts in uart_isr.S and frame_avr.S, which address a slot by
+ * its index alone: each ring is on a 256-byte boundary. The offline images' linker
+ * script puts them first in RAM (host/vehil/build/ldscript.py), where that costs no
+ * padding; another script pads to the boundary. */
+#define RING __attribute__((section(".data.rings"), aligned(256)))
+volatile uint8_t uart_rx_buf[UART_RX_SIZE] RING;
 volatile uint8_t uart_rx_head; /* written by the RX interrupt */
 volatile uint8_t uart_rx_tail;
 volatile uint16_t uart_rx_lost;
-volatile uint8_t uart_tx_buf[UART_TX_SIZE];
+volatile uint8_t uart_tx_buf[UART_TX_SIZE] RING;
 volatile uint8_t uart_tx_head; /* released bytes end here */
 volatile uint8_t uart_tx_tail; /* advanced by the UDRE interrupt */
 

@@ -113,8 +113,8 @@ def throughput_point(link: Link, window: int, count: int, size: int = 16) -> dic
 
 # The UART interrupts' cycles per byte, counted from firmware/src/uart_isr.S: response
 # and vector jump (8), saves, body and restores, RETI (5).
-RX_ISR_CYCLES = 58
-TX_ISR_CYCLES = 48
+RX_ISR_CYCLES = 49
+TX_ISR_CYCLES = 41
 BURST_BAUD = 2_000_000
 BURSTS = 12
 BURST_SIZES = (0, 16, 32, 64)  # at least three requests fit the board's RX buffer

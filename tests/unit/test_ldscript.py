@@ -5,7 +5,13 @@ import shutil
 
 import pytest
 
-from vehil.build.ldscript import CODE_SECTION, LinkerScriptError, data_low, default_script
+from vehil.build.ldscript import (
+    CODE_SECTION,
+    RINGS_SECTION,
+    LinkerScriptError,
+    data_low,
+    default_script,
+)
 
 pytestmark = pytest.mark.skipif(shutil.which("avr-ld") is None, reason="needs binutils-avr")
 
@@ -25,11 +31,14 @@ def test_data_loads_between_the_startup_code_and_the_rest() -> None:
 
 
 def test_every_input_section_statement_is_kept_once() -> None:
-    """Nothing lost or duplicated: the same statements, rearranged."""
+    """Nothing lost or duplicated: the same statements, rearranged, and the rings first."""
     default = default_script("atmega2560")
     script = data_low(default)
     pattern = re.compile(r"\*\([^)]*\)")
-    assert sorted(pattern.findall(script)) == sorted(pattern.findall(default))
+    added = [f"*({RINGS_SECTION})"]
+    assert sorted(pattern.findall(script)) == sorted(pattern.findall(default) + added)
+    data = script[script.index("__data_start") :]
+    assert pattern.findall(data)[0] == added[0]
 
 
 def test_a_script_of_another_shape_is_refused() -> None:

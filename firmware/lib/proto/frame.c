@@ -61,6 +61,26 @@ static frame_status_t rx_other(frame_rx_t *rx, uint8_t byte)
     return FRAME_MORE;
 }
 
+#if defined(__AVR__)
+/* firmware/src/frame_avr.S: the loop below in assembly. */
+uint8_t frame_rx_run(uint32_t *crc, uint8_t *dst, const uint8_t *src, uint8_t k);
+#else
+/* Copies up to k bytes of a COBS block's data, up to a zero, running the CRC over
+ * them; returns how many it took. */
+static uint8_t frame_rx_run(uint32_t *crc, uint8_t *dst, const uint8_t *src, uint8_t k)
+{
+    uint32_t c = *crc;
+    uint8_t took = 0;
+    while (took != k && src[took] != 0) {
+        c = crc32c_update(c, src[took]);
+        dst[took] = src[took];
+        took++;
+    }
+    *crc = c;
+    return took;
+}
+#endif
+
 uint8_t frame_rx_bytes(frame_rx_t *rx, const uint8_t *data, uint8_t len, frame_status_t *st)
 {
     const uint8_t *p = data;
@@ -78,17 +98,10 @@ uint8_t frame_rx_bytes(frame_rx_t *rx, const uint8_t *data, uint8_t len, frame_s
             if ((uint8_t)(end - p) < k) {
                 k = (uint8_t)(end - p);
             }
-            uint8_t *dst = rx->raw + rx->n;
-            const uint8_t *stop = p + k;
-            uint32_t crc = rx->crc;
-            while (p != stop && *p != 0) {
-                crc = crc32c_update(crc, *p);
-                *dst++ = *p++;
-            }
-            uint8_t took = (uint8_t)(dst - (rx->raw + rx->n));
+            uint8_t took = frame_rx_run(&rx->crc, rx->raw + rx->n, p, k);
+            p += took;
             rx->n = (uint8_t)(rx->n + took);
             rx->left = (uint8_t)(rx->left - took);
-            rx->crc = crc;
             continue;
         }
         frame_status_t s = rx_other(rx, *p++);
@@ -104,7 +117,7 @@ uint8_t frame_rx_bytes(frame_rx_t *rx, const uint8_t *data, uint8_t len, frame_s
 typedef char frame_blocks_end_at_zeros[FRAME_RAW_MAX < 254u ? 1 : -1];
 
 #if defined(__AVR__)
-/* firmware/src/frame_tx_avr.S: the loop below in assembly, straight into the UART's TX ring. */
+/* firmware/src/frame_avr.S: the loop below in assembly, straight into the UART's TX ring. */
 uint8_t frame_tx_run(uint32_t *crc, uint8_t code, const uint8_t *data, uint8_t n);
 #else
 /* n bytes into the TX buffer, COBS-encoded, the CRC run over them; returns the COBS

@@ -7,7 +7,10 @@ loads `.data` after all the code; this script ends `.text` after the start-up co
 (vectors, tables, .init*), loads `.data` there, and puts the rest of the code in an
 output section `.code` after it. The flash tables (`.progmem*`, read with LPM and a
 16-bit Z: firmware/lib/rom/rom.h) sit in that low `.text` too; the script asserts that
-it ends below 64 KB. The script is derived at build time from the
+it ends below 64 KB. `.data` starts with the UART's rings (section `.data.rings`,
+firmware/src/uart.c) at the start of RAM, 0x200: they must each lie on a 256-byte
+boundary (the interrupts address a slot by its index alone), and there that costs no
+padding. The script is derived at build time from the
 installed linker's default, so it follows whatever binutils is installed.
 """
 
@@ -18,10 +21,14 @@ import subprocess
 from pathlib import Path
 
 CODE_SECTION = ".code"
+RINGS_SECTION = ".data.rings"
 
 _DATA = re.compile(r"^[ \t]*\.data[ \t]*:[ \t]*\n.*?\}[ \t]*> data AT> text[ \t]*\n", re.M | re.S)
 _CODE_START = re.compile(r"^[ \t]*\*\(\.text\)[ \t]*\n", re.M)
 
+
+_DATA_START = re.compile(r"^[ \t]*PROVIDE \(__data_start = \.\) ;[ \t]*\n", re.M)
+_RINGS = f"    *({RINGS_SECTION})\n"
 
 _BELOW_64K = (
     '  ASSERT(ADDR(.text) + SIZEOF(.text) + SIZEOF(.data) <= 0x10000, "vehil: the flash '
@@ -60,11 +67,19 @@ def data_low(script: str) -> str:
             "avr-ld's default script does not have the expected shape (a `.text` section "
             "with `*(.text)`, then `.data ... > data AT> text`): cannot place .data low"
         )
+    start = _DATA_START.search(data.group(0))
+    if start is None:
+        raise LinkerScriptError(
+            "avr-ld's default script's `.data` does not begin with `PROVIDE (__data_start = .)`:"
+            " cannot put the UART rings first"
+        )
     return (
         script[: code.start()]
         + "  }  > text\n"
         + _BELOW_64K
-        + data.group(0)
+        + data.group(0)[: start.end()]
+        + _RINGS
+        + data.group(0)[start.end() :]
         + f"  {CODE_SECTION}   :\n  {{\n"
         + script[code.start() : data.start()]
         + script[data.end() :]
