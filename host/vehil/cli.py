@@ -467,6 +467,44 @@ def cmd_scenarios(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_estimators(args: argparse.Namespace) -> int:
+    from vehil import catalog, estimators
+
+    if args.name:
+        spec = _known(estimators.estimators(), args.name, "estimator")
+        _show_all(args, catalog.estimator_tables(spec), catalog.estimator_data(spec))
+    else:
+        specs = estimators.estimators().values()
+        _show(args, catalog.estimators_table(specs), [catalog.estimator_data(s) for s in specs])
+    return 0
+
+
+def cmd_plants(args: argparse.Namespace) -> int:
+    from vehil import catalog, plants
+
+    if args.name:
+        plant = _known(plants.plants(), args.name, "plant")
+        _show_all(args, catalog.plant_tables(plant), catalog.plant_data(plant))
+    else:
+        known = plants.plants().values()
+        _show(args, catalog.plants_table(known), [catalog.plant_data(p) for p in known])
+    return 0
+
+
+def _known(items: dict[str, Any], name: str, what: str) -> Any:
+    if name not in items:
+        raise VehilError(f"no {what} {name!r}; known: {', '.join(sorted(items))}")
+    return items[name]
+
+
+def _show_all(args: argparse.Namespace, tables: Sequence[Table], data: Any) -> None:
+    if getattr(args, "json", False):
+        args.json_out.append(data)
+    else:
+        for t in tables:
+            console.print(t)
+
+
 def cmd_reproduce(args: argparse.Namespace) -> int:
     from vehil import papers
 
@@ -717,6 +755,18 @@ def main(argv: Sequence[str] | None = None) -> int:
     p = sub.add_parser("scenarios", help="list the shipped scenarios")
     _add_json_option(p)
     p.set_defaults(func=cmd_scenarios)
+
+    p = sub.add_parser(
+        "estimators", help="the estimators: inputs, outputs, parameters, units, Q formats"
+    )
+    p.add_argument("name", nargs="?", help="one estimator in full")
+    _add_json_option(p)
+    p.set_defaults(func=cmd_estimators)
+
+    p = sub.add_parser("plants", help="the plants: measured and true signals, parameters")
+    p.add_argument("name", nargs="?", help="one plant in full")
+    _add_json_option(p)
+    p.set_defaults(func=cmd_plants)
 
     p = sub.add_parser("reproduce", help="a paper's published figures beside ours")
     p.add_argument("paper", help="the paper's key, e.g. acc, braking, stlqf")

@@ -96,7 +96,7 @@ class PerStep:
 
 
 def lpf_below_limit(p: Mapping[str, float], mode: str = "F32") -> str | None:
-    """The spec's rule, CONFIG's too: the low-pass's cutoff within reach of T."""
+    """lpf_hz T <= 0.4: the low-pass's cutoff within reach of the sample time."""
     T, fc = p["T"], p["lpf_hz"]
     if fc * T > LPF_MAX_FC_T:
         return (

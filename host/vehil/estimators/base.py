@@ -21,7 +21,8 @@ from vehil.spec import INT32_RANGE, Param, Signal, resolve_params
 
 MODES = ("F32", "FIXED")
 # A rule over several parameters that the C's configure enforces too: given the values and
-# the numeric mode, what is wrong with them, or None.
+# the numeric mode, what is wrong with them, or None. Its docstring states it in one line
+# (`vehil estimators NAME` lists it).
 Rule = Callable[[Mapping[str, float], str], str | None]
 
 

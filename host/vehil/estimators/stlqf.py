@@ -74,12 +74,14 @@ SHARED_PARAMS = (
 
 
 def no_fixed_prefilter(p: Mapping[str, float], mode: str) -> str | None:
+    """FIXED: prefilter_hz = 0 (no prefilter in fixed point)."""
     if mode == "FIXED" and p["prefilter_hz"] != 0:
         return "prefilter_hz must be 0 in FIXED (no prefilter in fixed point)"
     return None
 
 
 def a_positive_definite(p: Mapping[str, float], mode: str) -> str | None:
+    """a11..a33 make A positive definite."""
     a = [[p["a11"], p["a12"], p["a13"]], [p["a12"], p["a22"], p["a23"]]]
     a.append([p["a13"], p["a23"], p["a33"]])
     if np.any(np.linalg.eigvalsh(np.array(a)) <= 0):
@@ -88,6 +90,7 @@ def a_positive_definite(p: Mapping[str, float], mode: str) -> str | None:
 
 
 def chi2_fits(p: Mapping[str, float], mode: str) -> str | None:
+    """FIXED: chi2 / T^2 < 2^20."""
     if mode == "FIXED" and p["chi2"] / p["T"] ** 2 >= 2.0**20:
         return "chi2 / T^2 must stay below 2^20 in FIXED (the filter's products would not fit)"
     return None
