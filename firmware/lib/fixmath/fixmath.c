@@ -104,23 +104,61 @@ static const ROM ROM_TABLE(uint16_t, 33) recip_table = {{
 }};
 
 /* Shifts v (> 0) until bit 30 is its top bit; returns by how much to the left (-1: 2^31,
- * the magnitude of INT32_MIN, shifted right). Whole bytes first. */
+ * the magnitude of INT32_MIN, shifted right). A binary search by 16, 8, 4, 2 and 1 bits:
+ * the AVR shifts an int32 one bit at a time, so whole bytes go first and no loop runs. */
 static int8_t normalize30(uint32_t *v)
 {
+    uint32_t x = *v;
     int8_t n = 0;
-    if (*v & 0x80000000u) {
-        *v >>= 1;
+    if (x & 0x80000000u) {
+        *v = x >> 1;
         return -1;
     }
-    while (!(*v & 0xff800000u)) {
-        *v <<= 8;
+    if (!(x & 0xffff8000u)) { /* top bit <= 14 */
+        x <<= 16;
+        n = 16;
+    }
+    if (!(x & 0xff800000u)) { /* <= 22 */
+        x <<= 8;
         n = (int8_t)(n + 8);
     }
-    while (!(*v & 0x40000000u)) {
-        *v <<= 1;
+    if (!(x & 0xf8000000u)) { /* <= 26 */
+        x <<= 4;
+        n = (int8_t)(n + 4);
+    }
+    if (!(x & 0xe0000000u)) { /* <= 28 */
+        x <<= 2;
+        n = (int8_t)(n + 2);
+    }
+    if (!(x & 0x40000000u)) { /* 29 */
+        x <<= 1;
         n++;
     }
+    *v = x;
     return n;
+}
+
+/* x >> n and x << n for a run-time n < 32, whole bytes first. */
+static uint32_t shr32(uint32_t x, uint8_t n)
+{
+    if (n & 16u) {
+        x >>= 16;
+    }
+    if (n & 8u) {
+        x >>= 8;
+    }
+    return x >> (n & 7u);
+}
+
+static uint32_t shl32(uint32_t x, uint8_t n)
+{
+    if (n & 16u) {
+        x <<= 16;
+    }
+    if (n & 8u) {
+        x <<= 8;
+    }
+    return x << (n & 7u);
 }
 
 fx_recip_t fx_recip(int32_t b)
@@ -150,22 +188,18 @@ int32_t fx_div_by(int32_t a, uint8_t qa, fx_recip_t r, uint8_t qb, uint8_t q_out
     uint32_t q = (uint32_t)fx_mul_rs((int32_t)m, r.y, 31, status);
     int16_t sh = (int16_t)((int16_t)r.n - k - 29 + qb - qa + q_out);
     if (sh >= 0) {
-        if (sh > 30 || q > ((uint32_t)FX_MAX >> sh)) {
+        if (sh > 30 || q > shr32((uint32_t)FX_MAX, (uint8_t)sh)) {
             *status |= STATUS_SATURATED;
             return a < 0 ? FX_MIN : FX_MAX;
         }
-        q <<= sh;
+        q = shl32(q, (uint8_t)sh);
     } else {
         uint8_t down = (uint8_t)-sh;
         if (down > 31u) {
             return 0;
         }
-        q += (uint32_t)1 << (down - 1u); /* q <= 2^30: no carry out */
-        while (down >= 8u) {
-            q >>= 8;
-            down = (uint8_t)(down - 8u);
-        }
-        q >>= down;
+        /* (q + 2^(down-1)) >> down, q <= 2^30, as ((q >> (down-1)) + 1) >> 1 */
+        q = (shr32(q, (uint8_t)(down - 1u)) + 1u) >> 1;
     }
     return a < 0 ? -(int32_t)q : (int32_t)q;
 }
