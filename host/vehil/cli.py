@@ -514,6 +514,28 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
     return int(known[args.paper].reproduce(console, args.board))
 
 
+def cmd_tolerances(args: argparse.Namespace) -> int:
+    from vehil import scenario, tolerances
+
+    sc = scenario.load(args.scenario)
+    found = tolerances.budget(sc, args.trials, args.safety, args.roundoff)
+    t = Table(
+        title=f"{sc.name} ({sc.mode}, T = {sc.sample_time:g} s, {sc.samples:,} steps): "
+        f"the rounding's reach and the tolerance it suggests (× {args.safety:g})"
+    )
+    for col in ("output", "reach (max |Δ|)", "suggested abs", "scenario's abs"):
+        t.add_column(col, justify="right" if col != "output" else "left")
+    rows = []
+    for name, b in found.items():
+        shipped = "-" if b.shipped is None else f"{b.shipped:.2g}"
+        t.add_row(name, f"{b.reach:.2e}", f"{b.tolerance:.2g}", shipped)
+        rows.append({"output": name, **vars(b)})
+    _show(args, t, rows)
+    if args.toml:
+        print(tolerances.as_toml(found))
+    return 0
+
+
 def cmd_sweep(args: argparse.Namespace) -> int:
     from vehil import scenario, sweep
     from vehil.perturb import parse_option
@@ -772,6 +794,19 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("paper", help="the paper's key, e.g. acc, braking, stlqf")
     p.add_argument("--board", default=None, help="also run the board estimators on this board")
     p.set_defaults(func=cmd_reproduce)
+
+    p = sub.add_parser(
+        "tolerances", help="tolerances from an error budget: rounding × amplification × steps"
+    )
+    p.add_argument("scenario", help="a scenario .toml, or the name of a shipped one")
+    p.add_argument("--trials", type=int, default=4, help="perturbed runs (default 4)")
+    p.add_argument("--safety", type=float, default=4.0, help="tolerance = this × reach")
+    p.add_argument(
+        "--roundoff", type=float, default=None, help="relative rounding u (F32 2^-24, FIXED 2^-20)"
+    )
+    p.add_argument("--toml", action="store_true", help="print [tolerance.*] tables to paste")
+    _add_json_option(p)
+    p.set_defaults(func=cmd_tolerances)
 
     p = sub.add_parser(
         "sweep", help="Monte Carlo: a scenario over perturbed plants, error and flag distributions"
