@@ -212,6 +212,19 @@ static const uint8_t row_q[3] = {24 + 6, 18 + 6, 14 + 6};
 
 static uint64_t magnitude(int64_t x) { return x < 0 ? (uint64_t)0 - (uint64_t)x : (uint64_t)x; }
 
+/* v τ(j) for |τ| <= 7 by shifts and adds (an int32 product is a library call on the AVR). */
+typedef char stlqf_tau_fits_three_bits[CENTRE <= 7u && STLQF_ROWS - 1u - CENTRE <= 7u ? 1 : -1];
+
+static int32_t times_tau(int32_t v, uint8_t j)
+{
+    int8_t t = tau(j);
+    uint8_t m = (uint8_t)(t < 0 ? -t : t);
+    int32_t p = m & 1u ? v : 0;
+    p += m & 2u ? 2 * v : 0;
+    p += m & 4u ? 4 * v : 0;
+    return t < 0 ? -p : p;
+}
+
 /* x · 2^up, rounded, saturated. A left shift is checked and done in int32: the AVR
  * multiplies an int64 by a power of two with a full 64-bit product. */
 static int32_t scale_pow2(int64_t x, int16_t up, uint8_t *st)
@@ -282,17 +295,29 @@ static int8_t normalize(const int32_t *in, int16_t *out, uint8_t n, int32_t limi
         }
         return k;
     }
-    if (((peak >> (k - 1)) + 1u) >> 1 > (uint32_t)limit) {
-        k++; /* rounding up would pass the limit */
+    /* k <= 16 (|in| < 2^30): 2^(k-1) in 16 bits. Rounding up would pass the limit when
+     * peak >= (2 limit + 1) 2^(k-1), a 16 × 16 product rather than a shift of peak. */
+    uint16_t half16 = (uint16_t)1 << (k - 1);
+    int32_t half = half16;
+    if (peak >= (uint32_t)(uint16_t)(2 * limit + 1) * half16) {
+        k++;
+        half *= 2;
     }
-    int32_t half = (int32_t)1 << (k - 1);
-    uint8_t bytes = (uint8_t)((uint8_t)k >> 3), bits = (uint8_t)(k & 7);
+    /* (v + 2^(k-1)) >> k as whole bytes, then 1 to 8 bits as a product by 2^(8 - bits)
+     * whose top is the result: 8 × 8 and 16 × 8 hardware products, where a shift by a
+     * count known only at run time loops a bit at a time on the AVR. */
+    uint8_t bytes = (uint8_t)((uint8_t)(k - 1) >> 3);
+    uint8_t m = (uint8_t)(1u << (7u - ((uint8_t)(k - 1) & 7u))); /* 2^(8 - bits) */
     for (uint8_t i = 0; i < n; i++) { /* |in| < 2^30 */
         int32_t v = in[i] + half;
         for (uint8_t b = 0; b < bytes; b++) {
             v >>= 8;
         }
-        out[i] = (int16_t)(v >> bits);
+        /* v >> bits fits int16, so v m 2^-8 = (v >> 8) m + (v's low byte) m 2^-8 does
+         * too, and its low 16 bits are the result */
+        uint16_t hi = (uint16_t)(int16_t)(v >> 8);
+        uint8_t lo = (uint8_t)v;
+        out[i] = (int16_t)(uint16_t)(hi * m + (uint16_t)((uint16_t)lo * m >> 8));
     }
     return k;
 }
@@ -473,7 +498,7 @@ static uint8_t solve_q(stlqf_state_t *s, int32_t *log_cond)
     for (uint8_t c = 0; c < 4u; c++) {
         uint8_t ch = (uint8_t)(c >> 1);
         for (uint8_t j = 0; j < STLQF_ROWS; j++) { /* |τ ψ̃ + e| < 6 · 2^27 */
-            col[j] = (c & 1u) ? r[ch][j] : tau(j) * r[ch][j] + r[ch][STLQF_ROWS + j];
+            col[j] = (c & 1u) ? r[ch][j] : times_tau(r[ch][j], j) + r[ch][STLQF_ROWS + j];
         }
         e[c] = (int8_t)(e_r[ch] + weigh(q->band, col, x[c]));
     }
