@@ -226,3 +226,37 @@ def test_fx_mul16_h15_gives_the_bits_of_fx_mul_shr(native_lib) -> None:  # noqa:
             status = ctypes.c_uint8(0)
             assert m(a, b) == shr(a, b, 15, ctypes.byref(status)), (a, b)
             assert status.value == 0, (a, b)
+
+
+def test_fx_dot16x32_q15_rounds_the_exact_sum_once_and_saturates(native_lib) -> None:  # noqa: ANN001
+    """The int16 × int32 dot product (strided int16s, as a Cholesky's column) against
+    Python's integers: the exact sum rounded half up at 2^-15, saturated and flagged."""
+    f = native_lib.fx_dot16x32_q15_c
+    f.argtypes = [
+        ctypes.POINTER(ctypes.c_int16),
+        ctypes.POINTER(ctypes.c_int32),
+        ctypes.c_uint8,
+        ctypes.c_uint8,
+        ctypes.POINTER(ctypes.c_uint8),
+    ]
+    f.restype = ctypes.c_int32
+    rng = np.random.default_rng(1632)
+    edge_l, edge_y = [-(2**15), 2**15 - 1, -1, 1], [-(2**31), 2**31 - 1, -1, 1]
+    for _ in range(3000):
+        n, stride = int(rng.integers(0, 7)), int(rng.integers(1, 7))
+        ls = [
+            int(v) for v in rng.choice(edge_l + list(rng.integers(-(2**15), 2**15, 4)), n * stride)
+        ]
+        ys = [int(v) for v in rng.choice(edge_y + list(rng.integers(-(2**31), 2**31, 4)), n)]
+        exact = sum(ls[k * stride] * ys[k] for k in range(n))
+        want = (exact + 2**14) >> 15
+        status = ctypes.c_uint8(0)
+        got = f(
+            (ctypes.c_int16 * max(1, len(ls)))(*ls),
+            (ctypes.c_int32 * max(1, n))(*ys),
+            n,
+            stride,
+            ctypes.byref(status),
+        )
+        assert got == max(-(2**31), min(2**31 - 1, want)), (ls, ys, stride)
+        assert bool(status.value & 1) == (not -(2**31) <= want < 2**31), (ls, ys, stride)

@@ -59,6 +59,16 @@ int32_t fx_mul16_c(int32_t a, int16_t b, uint8_t s, uint8_t *status)
 /* fx_umul16_q15 out of line, for the native tests. */
 uint32_t fx_umul16_q15_c(uint32_t a, uint16_t b) { return fx_umul16_q15(a, b); }
 
+int32_t fx_dot16x32_q15_c(const int16_t *l, const int32_t *y, uint8_t n, uint8_t stride,
+                          uint8_t *status)
+{
+    int64_t sum = 0; /* n products below 2^46 */
+    for (uint8_t k = 0; k < n; k++) {
+        sum += (int64_t)l[k * stride] * y[k];
+    }
+    return fx_sat((sum + ((int64_t)1 << 14)) >> 15, status);
+}
+
 /* fx_mul16_h15 out of line, for the native tests. */
 int32_t fx_mul16_h15_c(int32_t a, int16_t b) { return fx_mul16_h15(a, b); }
 

@@ -30,16 +30,12 @@ static int16_t to_q15(int32_t x, uint8_t *status)
     return (int16_t)x;
 }
 
-/* (x - Σ l[k] y[k stride] 2^-15) / l_ii for k < n: one substitution row, each product
- * rounded by fixmath's int32 × Q15 kernel (int64 sums are library calls on the AVR);
- * |l| <= INT16_MAX (to_q15, isqrt). */
+/* (x - Σ l[k stride] y[k] 2^-15) / l_ii for k < n: one substitution row, the sum exact
+ * and rounded once (fixmath's int16 × int32 dot product). */
 static int32_t substitute(int32_t x, const int16_t *l, const int32_t *y, uint8_t stride_l,
                           uint8_t n, int32_t inv, uint8_t *status)
 {
-    int32_t s = x;
-    for (uint8_t k = 0; k < n; k++) {
-        s = fx_sub(s, fx_mul16_h15(y[k], l[k * stride_l]), status);
-    }
+    int32_t s = fx_sub(x, fx_dot16x32_q15(l, y, n, stride_l, status), status);
     return fx_mul_shr(s, inv, 16, status); /* 1 / l_ii in Q16 */
 }
 
