@@ -11,13 +11,13 @@ transmitter waits for the next COBS block to be released).
 from __future__ import annotations
 
 import statistics
-from pathlib import Path
 
 import pytest
 
 from vehil.boards import BoardOptions, SimavrOptions, open_board
 from vehil.errors import BoardError
 from vehil.protocol import frame
+from vehil.vcd import frames, uart_bytes
 
 pytestmark = pytest.mark.hil
 
@@ -40,31 +40,9 @@ STANDARD_BAUDS = (
     2_000_000,
 )
 BITS_PER_BYTE = 11  # simavr counts a parity bit in 8N1 (see sim/README.md)
-VCD_NS = 10  # the bridge's VCD timescale
 PINGS = 3
 PAYLOAD = bytes(range(1, 49))
 PONG_WIRE = len(frame.encode(0x82, 1, bytes(4) + PAYLOAD))  # with its delimiter
-
-
-def _tx_frames(vcd: Path) -> list[list[int]]:
-    """The times (ns) of every byte written to UDR0, split into frames at the 0x00 delimiter."""
-    ids: dict[str, str] = {}
-    frames: list[list[int]] = [[]]
-    now, value = 0, 0
-    for line in vcd.read_text().splitlines():
-        if line.startswith("$var"):
-            _, _, _, ident, name, _ = line.split()
-            ids[name] = ident
-        elif line.startswith("#"):
-            now = int(line[1:]) * VCD_NS
-        elif line.startswith("b") and line.split()[1] == ids.get("uart0_tx"):
-            bits = line.split()[0][1:]
-            value = int(bits, 2) if "x" not in bits else -1
-        elif line[:1] in "01" and line[1:] == ids.get("uart0_tx_strobe"):
-            frames[-1].append(now)
-            if value == 0:
-                frames.append([])
-    return [f for f in frames if f]
 
 
 def test_simavr_bit_time_is_the_requested_baud_at_every_accepted_rate(built, tmp_path) -> None:
@@ -81,10 +59,10 @@ def test_simavr_bit_time_is_the_requested_baud_at_every_accepted_rate(built, tmp
             first_pong[baud] = sent + 2  # after the STATS reply and SET_BAUD's ACK
             for _ in range(PINGS):
                 link.request("PING", payload=PAYLOAD)
-    frames = _tx_frames(vcd)
+    replies = frames(uart_bytes(vcd)[0])
     lines, measured = [], []
     for baud, first in first_pong.items():
-        pongs = frames[first : first + PINGS]
+        pongs = [[b.t_ns for b in f] for f in replies[first : first + PINGS]]
         assert all(len(f) == PONG_WIRE for f in pongs)
         # Over eight bytes, which evens out the trace's 10 ns steps; the median leaves out
         # the windows where the transmitter waited for the encoder to release a COBS block.

@@ -116,6 +116,19 @@ uint8_t frame_rx_bytes(frame_rx_t *rx, const uint8_t *data, uint8_t len, frame_s
 /* No COBS block reaches the 254 data bytes that would end it without a zero. */
 typedef char frame_blocks_end_at_zeros[FRAME_RAW_MAX < 254u ? 1 : -1];
 
+/* One byte into the COBS encoder; returns the block's code so far. A zero ends the
+ * block (its code stands for the zero) and opens the next. */
+static inline uint8_t tx_cobs(uint8_t code, uint8_t byte)
+{
+    if (byte == 0) {
+        port_tx_close(code);
+        port_tx_open();
+        return 1;
+    }
+    port_tx_put(byte);
+    return (uint8_t)(code + 1u);
+}
+
 #if defined(__AVR__)
 /* firmware/src/frame_avr.S: the loop below in assembly, straight into the UART's TX ring. */
 uint8_t frame_tx_run(uint32_t *crc, uint8_t code, const uint8_t *data, uint8_t n);
@@ -128,14 +141,7 @@ static uint8_t frame_tx_run(uint32_t *crc, uint8_t code, const uint8_t *data, ui
     while (n-- > 0u) {
         uint8_t byte = *data++;
         c = crc32c_update(c, byte);
-        if (byte == 0) {
-            port_tx_close(code);
-            port_tx_open();
-            code = 1;
-        } else {
-            port_tx_put(byte);
-            code++;
-        }
+        code = tx_cobs(code, byte);
     }
     *crc = c;
     return code;
@@ -159,9 +165,11 @@ void frame_tx_bytes(frame_tx_t *tx, const uint8_t *data, uint8_t n)
 void frame_tx_end(frame_tx_t *tx)
 {
     uint32_t crc = tx->crc ^ CRC32C_XOROUT;
-    const uint8_t tail[FRAME_CRC_SIZE] = {(uint8_t)crc, (uint8_t)(crc >> 8), (uint8_t)(crc >> 16),
-                                          (uint8_t)(crc >> 24)};
-    uint8_t code = frame_tx_run(&tx->crc, tx->code, tail, sizeof tail); /* tx->crc is done with */
+    uint8_t code = tx->code;
+    for (uint8_t i = 0; i < FRAME_CRC_SIZE; i++) { /* the CRC's own bytes are not run through it */
+        code = tx_cobs(code, (uint8_t)crc);
+        crc >>= 8;
+    }
     port_tx_put(0); /* the delimiter, released with the last block */
     port_tx_close(code);
 }

@@ -1,0 +1,191 @@
+"""The link's figures on simavr, printed: what the board costs per exchange, how much of
+the line rate it streams, how soon it answers, and how close stop-and-wait round trips
+come to the wire and the board's compute.
+
+    python -m vehil.link_bench            # everything (~2 min on a quiet machine)
+    python -m vehil.link_bench --json
+
+Cycle figures are simavr's, exact whatever the host's load. Round trips are host-clock
+figures on `simavr-realtime`, which is held to the chip's time only while the host
+keeps up with it: the bench measures how fast simavr runs free and says so.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from vehil import profile
+from vehil.boards import BoardOptions, SimavrOptions, make_board, open_board
+from vehil.link import Link
+from vehil.ping import run_ping
+from vehil.protocol import frame as framing
+from vehil.vcd import frames, uart_bytes
+
+F_CPU = 16_000_000
+SIMAVR_BITS_PER_BYTE = 11  # simavr's UART counts a parity bit in 8N1 (sim/README.md)
+PING_SIZE = 16
+STREAM_WINDOW = 8
+STREAM_BAUDS = (1_000_000, 2_000_000)
+ROUND_TRIP_BAUDS = (115200, 1_000_000)
+ROUND_TRIP_LIMIT = 1.15  # p99 against wire + board compute: the target
+
+
+def _set_baud(link: Link, baud: int) -> None:
+    if link.info is None or int(link.info.fields["baud"]) != baud:
+        link.set_baud(baud)
+
+
+def streaming(link: Link, count: int) -> list[dict[str, Any]]:
+    """Windowed 16-byte PINGs: the board's share of the 10-bit line rate, by its own clock."""
+    rows = []
+    for baud in STREAM_BAUDS:
+        _set_baud(link, baud)
+        point = profile.throughput_point(link, STREAM_WINDOW, count, PING_SIZE)
+        rows.append({"baud": baud, **point})
+    _set_baud(link, 1_000_000)
+    return rows
+
+
+def reply_latency(count: int) -> dict[str, float]:
+    """Board cycles from reading a 16-byte PING's delimiter out of UDR0 to writing its PONG's
+    first byte into UDR0 (stop-and-wait, 1 Mbaud), from the bridge's VCD trace: the
+    request's last byte to its reply queued, plus the few cycles the TX interrupt takes
+    to start it."""
+    with tempfile.TemporaryDirectory() as tmp:
+        vcd = Path(tmp) / "uart.vcd"
+        with open_board("simavr", BoardOptions(), SimavrOptions(vcd=vcd)) as link:
+            run_ping(link, count=count, size=PING_SIZE, window=1)
+        sent, received = uart_bytes(vcd)
+    request_wire = len(framing.encode(0, 1, bytes(PING_SIZE)))
+    ends = [f[-1].t_ns for f in frames(received) if len(f) == request_wire]
+    starts = sorted(f[0].t_ns for f in frames(sent))
+    cycles = []
+    for end in ends:
+        first = next((s for s in starts if s > end), None)
+        if first is not None:
+            cycles.append((first - end) * F_CPU / 1e9)
+    return {
+        "exchanges": len(cycles),
+        "median": statistics.median(cycles),
+        "min": min(cycles),
+        "max": max(cycles),
+    }
+
+
+def simavr_speed(seconds: float = 3.0) -> float:
+    """Simulated time per wall-clock second of simavr running free, the board busy all
+    along (bursts of PINGs at 2 Mbaud): below 1, this host cannot hold it to real time."""
+    with open_board("simavr") as link:
+        link.set_baud(2_000_000)
+        start, board, n = time.perf_counter(), 0.0, 0
+        while time.perf_counter() - start < seconds:
+            s = run_ping(link, count=200, size=64, window=profile.WINDOWS[-1])
+            board += float(s.board_interval_s.sum())
+            n += 1
+        return board / (time.perf_counter() - start)
+
+
+def round_trips(count: int, latency_cycles: float) -> list[dict[str, Any]]:
+    """Stop-and-wait 16-byte PINGs on simavr-realtime against wire time + board compute."""
+    rows = []
+    board = make_board("simavr-realtime", BoardOptions(timeout_s=2.0))
+    with board.session() as link:
+        for baud in ROUND_TRIP_BAUDS:
+            _set_baud(link, baud)
+            run_ping(link, count=50, size=PING_SIZE, window=1)  # settle
+            s = run_ping(link, count=count, size=PING_SIZE, window=1)
+            wire_s = s.wire_bytes * SIMAVR_BITS_PER_BYTE / baud  # simavr's bytes
+            # The request's receive interrupts and fetch run as its bytes arrive; what
+            # the wire does not cover is the last byte to the reply queued.
+            bound_s = wire_s + latency_cycles / F_CPU
+            p99 = float(np.percentile(s.rtt_s, 99))
+            rows.append(
+                {
+                    "baud": baud,
+                    "p50_ms": float(np.percentile(s.rtt_s, 50)) * 1e3,
+                    "p99_ms": p99 * 1e3,
+                    "wire_plus_compute_ms": bound_s * 1e3,
+                    "p99_over_bound": p99 / bound_s,
+                }
+            )
+    return rows
+
+
+def run(count: int) -> dict[str, Any]:
+    figures: dict[str, Any] = {}
+    with open_board("simavr") as link:
+        figures["board_costs"] = profile.board_costs(link)
+        figures["streaming"] = streaming(link, count)
+    figures["reply_latency_cycles"] = reply_latency(min(count, 300))
+    figures["simavr_speed"] = simavr_speed()
+    figures["round_trips"] = round_trips(count, figures["reply_latency_cycles"]["median"])
+    return figures
+
+
+def report(f: dict[str, Any]) -> str:
+    lines = ["board cycles per PING exchange (bursts at 2 Mbaud; RX interrupts counted per byte):"]
+    for c in f["board_costs"]:
+        share = ", ".join(f"{int(b) // 1000} k {v * 100:.1f} %" for b, v in c["line_share"].items())
+        lines.append(
+            f"  {c['size']:3d} B: {c['cycles']:7,.0f} cycles ({c['no_rx_cycles']:,.0f} without "
+            f"RX interrupts, {c['rx_isr_cycles']:,} RX, {c['tx_isr_cycles']:,} TX interrupts); "
+            f"most of the line rate: {share}"
+        )
+    lines.append(
+        f"windowed streaming, {PING_SIZE}-byte PINGs, window {STREAM_WINDOW}, by the board's "
+        "clock (below the board's figure above when the host cannot keep the window full):"
+    )
+    for s in f["streaming"]:
+        lines.append(
+            f"  {s['baud']:>9,} baud: {s['board_frames_s']:,.0f} exchanges/s, "
+            f"{s['board_line_fraction'] * 100:.1f} % of the 10-bit line rate "
+            f"(overruns {s['overruns']}, CRC errors {s['crc_errors']})"
+        )
+    r = f["reply_latency_cycles"]
+    lines.append(
+        f"request's last byte to its reply's first byte in UDR0 ({PING_SIZE}-byte PING, "
+        f"{r['exchanges']} exchanges): median {r['median']:,.0f}, min {r['min']:,.0f}, "
+        f"max {r['max']:,.0f} cycles"
+    )
+    lines.append(
+        f"simavr running free, board busy: {f['simavr_speed']:.2f} s of chip time per wall "
+        "second"
+        + (
+            " (below 1: this host cannot hold simavr-realtime to real time)"
+            if f["simavr_speed"] < 1
+            else ""
+        )
+    )
+    lines.append(
+        f"stop-and-wait {PING_SIZE}-byte PINGs on simavr-realtime (host clock; wire at "
+        f"simavr's {SIMAVR_BITS_PER_BYTE} bits a byte):"
+    )
+    for t in f["round_trips"]:
+        lines.append(
+            f"  {t['baud']:>9,} baud: p50 {t['p50_ms']:.3f} ms, p99 {t['p99_ms']:.3f} ms, wire + "
+            f"compute {t['wire_plus_compute_ms']:.3f} ms: p99 {t['p99_over_bound']:.2f} x "
+            f"(target <= {ROUND_TRIP_LIMIT})"
+        )
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m vehil.link_bench", description=__doc__)
+    ap.add_argument("--count", type=int, default=2000, help="exchanges per streaming point")
+    ap.add_argument("--json", action="store_true", help="the figures as JSON")
+    args = ap.parse_args(argv)
+    figures = run(args.count)
+    print(json.dumps(figures, indent=1) if args.json else report(figures))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
