@@ -68,3 +68,20 @@ def test_the_original_anf_reaches_the_wheel_speed_at_its_fixed_rate() -> None:
     anf = manf.Anf({"T": 0.001, "r_w": 0.27, "wheel": 0, "rg_fixed": 8.0})
     v = np.array([anf.step(x)[0] for x in u])
     assert np.all(np.abs(np.diff(v)) <= 8.0 * 0.001 + 1e-12)
+
+
+@pytest.mark.parametrize("lag", [{"sigma_x": 0.5}, {"brake_tau": 0.05}, {"pitch_tau": 0.2}])
+def test_the_braking_plant_can_lag_where_the_filters_assume_it_does_not(lag) -> None:  # noqa: ANN001
+    """A step brake at 0.5 s: a tire relaxation length or a hydraulic lag delays the car's
+    deceleration; a pitching body delays the load transfer, so the front wheel, still
+    lightly loaded, slips further. At 0 each is off and the car is the shipped one."""
+    braking = plants.get("braking")
+    base = {"profile": 0, "torque": 3000.0, "wheel_var": 0.0}
+    shipped, lagged = (braking.run({**base, **o}, 1.0, 0.001, 1) for o in ({}, lag))
+    k = 550  # 50 ms after the brake
+    if "pitch_tau" in lag:
+        slip = [(t.truth["v"] - 0.27 * t.truth["omega_f_true"])[k] for t in (shipped, lagged)]
+        assert slip[1] > slip[0]
+    else:
+        drop = [t.truth["v"][500] - t.truth["v"][k] for t in (shipped, lagged)]
+        assert drop[1] < 0.9 * drop[0]

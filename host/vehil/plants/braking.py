@@ -15,6 +15,12 @@ the surface table of note §1.5 (the paper gives no coefficients); μ/λ uses it
 ψ (c1 c2 - c3) as λ -> 0. The model is integrated with Heun's method at 10 kHz
 (the paper's DAQ rate; a locked-up wheel's slip dynamics near standstill are stiff).
 
+The car can be one the filters do not know beyond its parameters: tires whose slip
+builds over a relaxation length `sigma_x` (m; the slips follow the kinematic ones at
+v/σ, as a tire's carcass deflects before it slides; 0: instantaneous, as the filters
+assume), load transfer through a pitching body (`pitch_tau`, s) and a brake whose
+torque follows the demand through a hydraulic lag (`brake_tau`, s); 0 leaves each out.
+
 Brake torque profiles (`profile`): 0 a hard step, 1 a 0.3 s ramp, 2 ABS-like
 cycling that raises the torque until the more slipping wheel passes 0.3 and
 releases it below 0.08. Wheel-speed sensors (`sensor`): 0 ω with white noise of variance
@@ -57,9 +63,12 @@ def derivatives(
     c: tuple[float, float, float],
     printed: bool,
     car: Car,
+    sigma: float = 0.0,
 ) -> np.ndarray:
-    """ẋ of eqs. (2)-(16); d_x is the signed longitudinal acceleration for the loads."""
-    v_x, v_y, r, w_f, w_r = x
+    """ẋ of eqs. (2)-(16); d_x is the signed longitudinal acceleration for the loads.
+    x = [v_x, v_y, r, ω_f, ω_r, then the tires' slips s_x, s_y front and rear], which
+    relax towards the kinematic slips over `sigma` (m), or are them at 0."""
+    v_x, v_y, r, w_f, w_r = x[:5]
     v_x = max(v_x, 0.1)
     m, r_w, L = car.m, car.r_w, car.wheelbase
     n_wheels = 1.0 if printed else 2.0  # wheels per axle in the body equations
@@ -73,12 +82,18 @@ def derivatives(
         f_zf = static_f - transfer - drag
         f_zr = static_r + transfer + drag
     forces = []
-    for w, lever, steer in ((w_f, car.l_f, delta), (w_r, -car.l_r, 0.0)):
+    d_slip = np.zeros(4)
+    for i, (w, lever, steer) in enumerate(((w_f, car.l_f, delta), (w_r, -car.l_r, 0.0))):
         v_lat = v_y + lever * r
         v_w = np.hypot(v_lat, v_x)
         alpha = steer - np.arctan2(v_lat, v_x)
         s_x = (v_w - r_w * w * np.cos(alpha)) / v_w  # braking positive
         s_y = r_w * w * np.sin(alpha) / v_w
+        if sigma > 0:
+            d_slip[2 * i : 2 * i + 2] = (
+                v_w / sigma * (np.array([s_x, s_y]) - x[5 + 2 * i : 7 + 2 * i])
+            )
+            s_x, s_y = x[5 + 2 * i], x[6 + 2 * i]
         k = mu_over_slip(np.hypot(s_x, s_y), c, car.psi)
         forces.append((k * s_x, k * s_y))
     (kx_f, ky_f), (kx_r, ky_r) = forces
@@ -91,7 +106,7 @@ def derivatives(
     share = 1.0 / n_wheels  # each wheel of the axle takes its half of the axle's torque
     dw_f = (r_w * f_xf - car.k_b * torque * share) / car.i_w
     dw_r = (r_w * f_xr - (1 - car.k_b) * torque * share) / car.i_w
-    return np.array([dv_x, dv_y, dr, dw_f, dw_r])
+    return np.array([dv_x, dv_y, dr, dw_f, dw_r, *d_slip])
 
 
 def _torque(
@@ -163,25 +178,30 @@ def _simulate(p: Mapping[str, float], duration: float, T: float, seed: int) -> T
     printed = p["printed"] >= 0.5
     profile = int(p["profile"])
     v0 = p["v0_kmh"] / 3.6
-    x = np.array([v0, 0.0, 0.0, v0 / r_w, v0 / r_w])
+    x = np.array([v0, 0.0, 0.0, v0 / r_w, v0 / r_w, 0.0, 0.0, 0.0, 0.0])
     fine = np.empty((n_fine, 5))
     abs_state = [1.0, 0.0]
-    d_x = 0.0
+    d_x = d_load = tq_applied = 0.0
+    sigma = p["sigma_x"]
+    pitch = 1.0 - np.exp(-dt / p["pitch_tau"]) if p["pitch_tau"] > 0 else 1.0
+    hydraulic = 1.0 - np.exp(-dt / p["brake_tau"]) if p["brake_tau"] > 0 else 1.0
     for k in range(n_fine):
         t_k = k * dt
         delta = p["steer_deg"] * np.pi / 180 * np.sin(2 * np.pi * p["steer_hz"] * t_k)
         # One ABS channel on the worse wheel: neither may lock.
         slip = (x[0] - r_w * min(x[3], x[4])) / max(x[0], 0.1)
         tq = _torque(profile, t_k, p["t_brake"], p["torque"], abs_state, slip, dt)
-        fine[k] = x
+        tq_applied += hydraulic * (tq - tq_applied)
+        fine[k] = x[:5]
         if x[0] < 0.3:  # stopped: the wheels and the body hold still
-            x = np.array([x[0], 0.0, 0.0, x[0] / r_w, x[0] / r_w])
+            x = np.array([x[0], 0.0, 0.0, x[0] / r_w, x[0] / r_w, 0.0, 0.0, 0.0, 0.0])
             continue
-        k1 = derivatives(x, delta, tq, d_x, c, printed, car)
-        k2 = derivatives(x + dt * k1, delta, tq, d_x, c, printed, car)
+        d_load += pitch * (d_x - d_load)
+        k1 = derivatives(x, delta, tq_applied, d_load, c, printed, car, sigma)
+        k2 = derivatives(x + dt * k1, delta, tq_applied, d_load, c, printed, car, sigma)
         d_x = k1[0]
         x = x + dt / 2 * (k1 + k2)
-        x[3:] = np.maximum(x[3:], 0.0)  # a braked wheel stops, it does not turn back
+        x[3:5] = np.maximum(x[3:5], 0.0)  # a braked wheel stops, it does not turn back
     if p["sensor"] >= 0.5:
         w_f = _pulse_chain(fine[:, 3], dt, rng, p["pulse_noise"])
         w_r = _pulse_chain(fine[:, 4], dt, rng, p["pulse_noise"])
@@ -226,6 +246,9 @@ SPEC = register(
             Param("sensor", "1", default=0, lo=0, hi=1, doc="0 ω + noise, 1 the pulse chain"),
             Param("wheel_var", "(rad/s)^2", default=0.01, lo=0.0, hi=10.0),
             Param("pulse_noise", "1", default=0.3, lo=0.0, hi=3.0, doc="σ on the ±1 pulses"),
+            Param("sigma_x", "m", default=0.0, lo=0.0, hi=2.0, doc="tire relaxation, 0 none"),
+            Param("pitch_tau", "s", default=0.0, lo=0.0, hi=2.0, doc="load transfer lag, 0 none"),
+            Param("brake_tau", "s", default=0.0, lo=0.0, hi=1.0, doc="brake torque lag, 0 none"),
             *CAR_PARAMS,
         ),
         signals=(Signal("omega_f", "rad/s"), Signal("omega_r", "rad/s"), Signal("braking", "1")),
