@@ -147,8 +147,8 @@ def test_the_plant_can_be_a_car_the_filters_do_not_know() -> None:
     base = {"manoeuvre": 1, "noise": 0, "steer_deg": 2.0}
 
     def run(**over: float) -> dict[str, np.ndarray]:
-        trace = ev4wd.run({**base, **over}, 6.0, 0.01, 1)
-        return {"delta": trace.signals["delta"][300:], "fy1": trace.truth["fy1"][300:]}
+        trace = ev4wd.run({**base, **over}, 4.0, 0.01, 1)
+        return {"delta": trace.signals["delta"][200:], "fy1": trace.truth["fy1"][200:]}
 
     def lag(d: dict[str, np.ndarray]) -> int:
         x = np.correlate(d["fy1"] - d["fy1"].mean(), d["delta"] - d["delta"].mean(), "full")
