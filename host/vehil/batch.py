@@ -17,7 +17,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from vehil.compare import EXIT_ERROR, Verdict
-from vehil.scenario import SCENARIO_DIR, ScenarioError, find
+from vehil.scenario import ScenarioError, find, scenario_dirs
 
 GLOB_CHARS = frozenset("*?[")
 
@@ -32,7 +32,9 @@ def expand(patterns: Sequence[str]) -> list[Path]:
         else:
             files = sorted(Path(p) for p in glob.glob(pattern, recursive=True))
             paths = [p for p in files if p.suffix == ".toml"]
-            paths = paths or sorted(SCENARIO_DIR.glob(f"**/{pattern}.toml"))
+            paths = paths or [
+                p for d in scenario_dirs() for p in sorted(d.glob(f"**/{pattern}.toml"))
+            ]
         if not paths:
             raise ScenarioError(
                 f"{pattern!r} matches no scenario: give a .toml path, a glob of them, "

@@ -446,13 +446,13 @@ def cmd_compare(args: argparse.Namespace) -> int:
 def cmd_scenarios(args: argparse.Namespace) -> int:
     from vehil import scenario
 
-    t = Table(title="shipped scenarios (scenarios/)")
+    t = Table(title="scenarios (the project's, then vehil's)")
     columns = ("name", "estimator", "mode", "source", "duration", "title")
     for col in columns:
         t.add_column(col)
     rows: list[dict[str, Any]] = []
     for path in scenario.shipped():
-        name = str(path.relative_to(scenario.SCENARIO_DIR).with_suffix(""))
+        name = scenario.scenario_name(path)
         try:
             sc = scenario.load(path)
         except VehilError as exc:

@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from vehil import estimators, plants
+from vehil import estimators, plants, project
 from vehil.errors import VehilError
 from vehil.estimators.base import MODES, EstimatorSpec
 from vehil.paths import PROJECT_ROOT
@@ -445,19 +445,35 @@ def parse(data: dict[str, Any], where: str, path: Path | None = None) -> Scenari
     )
 
 
+def scenario_dirs() -> tuple[Path, ...]:
+    """Where scenarios are found by name: the project's folder (vehil.toml), then vehil's."""
+    here = project.current()
+    return (here.scenarios, SCENARIO_DIR) if here and here.scenarios else (SCENARIO_DIR,)
+
+
+def scenario_name(path: Path) -> str:
+    """NAME as `vehil run NAME` finds it: the path under its scenario folder."""
+    for folder in scenario_dirs():
+        if path.resolve().is_relative_to(folder.resolve()):
+            return str(path.resolve().relative_to(folder.resolve()).with_suffix(""))
+    return str(path)
+
+
 def find(name_or_path: str | Path) -> Path:
-    """A scenario by path, or by name among the shipped ones (scenarios/**/NAME.toml)."""
+    """A scenario by path, or by name among the project's and the shipped ones
+    (scenarios/**/NAME.toml); the project's first."""
     path = Path(name_or_path)
     if path.suffix == ".toml" or path.exists():
         if not path.exists():
             raise ScenarioError(f"{path}: no such scenario file")
         return path
-    matches = sorted(SCENARIO_DIR.rglob(f"{name_or_path}.toml"))
-    if len(matches) == 1:
-        return matches[0]
-    if matches:
-        listed = ", ".join(str(m.relative_to(SCENARIO_DIR)) for m in matches)
-        raise ScenarioError(f"{name_or_path!r} is ambiguous: {listed}; give the path")
+    for folder in scenario_dirs():
+        matches = sorted(folder.rglob(f"{name_or_path}.toml"))
+        if len(matches) == 1:
+            return matches[0]
+        if matches:
+            listed = ", ".join(str(m.relative_to(folder)) for m in matches)
+            raise ScenarioError(f"{name_or_path!r} is ambiguous: {listed}; give the path")
     raise ScenarioError(
         f"no scenario {name_or_path!r}: give a .toml path or a name from `vehil scenarios`"
     )
@@ -473,4 +489,5 @@ def load(name_or_path: str | Path) -> Scenario:
 
 
 def shipped() -> list[Path]:
-    return sorted(SCENARIO_DIR.rglob("*.toml"))
+    """Every scenario found by name: the project's, then vehil's."""
+    return [p for folder in scenario_dirs() for p in sorted(folder.rglob("*.toml"))]

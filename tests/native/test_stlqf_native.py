@@ -108,7 +108,12 @@ def test_a_scenario_that_fixed_point_refuses_names_the_parameter(built, tmp_path
     path = tmp_path / "prefiltered.toml"
     extra = "[estimator.params]\nprefilter_hz = 1.0\n"
     path.write_text(text.replace("duration = 75.0", "duration = 1.0") + extra)
-    run = runner.run(scenario.load(str(path)), "native", console=Console(quiet=True))
+    with pytest.raises(scenario.ScenarioError, match="prefilter_hz must be 0 in FIXED"):
+        scenario.load(str(path))  # the spec's rule, before any board
+    # and the board's own refusal, should a scenario get past the host:
+    sc = scenario.load("stlqf/paper-dither-fixed")
+    sc = dataclasses.replace(sc, duration=1.0, params={**sc.params, "prefilter_hz": 1.0})
+    run = runner.run(sc, "native", console=Console(quiet=True))
     assert run.ended == "failed"
     assert "prefilter_hz = 1 Hz, is in [0, 50]" in run.error
     assert "stlqf in FIXED refuses it" in run.error
