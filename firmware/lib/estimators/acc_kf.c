@@ -122,6 +122,55 @@ static int32_t lpf_q(const acc_kf_params_q_t *p, acc_kf_q_t *s, int32_t a_m, uin
     return a_f;
 }
 
+/* x (qa) / b (qb) -> q_out from b's reciprocal r: x r.y 2^(r.n - 60 + qb - qa + q_out), as
+ * x shifted by d = r.n - 34 + qb - qa + q_out and one product with the constant shift 26
+ * (~150 cycles where fx_div_by, which first normalises x, costs ~480). A shift that would
+ * leave int32 saturates (flagged); a right shift (d < 0: b large) rounds half up and
+ * drops x's last -d bits (docs/estimators/acc_kf.md). */
+static int32_t quotient(int32_t x, fx_recip_t r, int8_t d, uint8_t *status)
+{
+    if (d >= 0) {
+        uint8_t u = (uint8_t)d;
+        int32_t lim = FX_MAX; /* FX_MAX >> u, whole bytes first (the AVR loops bit by bit) */
+        if (u > 30u) {
+            lim = 0;
+        } else {
+            if (u & 16u) {
+                lim >>= 16;
+            }
+            if (u & 8u) {
+                lim >>= 8;
+            }
+            lim >>= (u & 7u);
+        }
+        if (x > lim || x < -lim - 1) {
+            *status |= STATUS_SATURATED;
+            return x < 0 ? FX_MIN : FX_MAX;
+        }
+        uint32_t ux = (uint32_t)x;
+        if (u & 16u) {
+            ux <<= 16;
+        }
+        if (u & 8u) {
+            ux <<= 8;
+        }
+        x = (int32_t)(ux << (u & 7u));
+    } else {
+        uint8_t k = (uint8_t)(-d - 1); /* (x + 2^k) >> (k + 1) as ((x >> k) + 1) >> 1 */
+        if (k > 30u) {
+            return 0;
+        }
+        if (k & 16u) {
+            x >>= 16;
+        }
+        if (k & 8u) {
+            x >>= 8;
+        }
+        x = ((x >> (k & 7u)) + 1) >> 1;
+    }
+    return fx_mul_rs(x, r.y, 26, status);
+}
+
 /* The gains and the covariance update (eq. 8's C = [c, 0]), their flags kept in p_status.
  * With c = 1 the recursion depends on P alone: once an update leaves P's bits unchanged
  * (p_steady), every later step with c = 1 would compute the same gains and the same P,
@@ -150,8 +199,9 @@ static void covariance_q(const acc_kf_params_q_t *p, acc_kf_q_t *s, int32_t c, u
     int32_t k1 = 0, k2 = 0; /* no update if S is not positive (it is R > 0 or more) */
     if (S > 0) {
         fx_recip_t inv_s = fx_recip(S);
-        k1 = fx_div_by(cm11, 28, inv_s, 24, 30, &status); /* Q30 */
-        k2 = fx_div_by(cm12, 28, inv_s, 24, 30, &status); /* Q30, 1/s */
+        int8_t d = (int8_t)(inv_s.n - 8); /* Q28 / Q24 -> Q30 */
+        k1 = quotient(cm11, inv_s, d, &status); /* Q30 */
+        k2 = quotient(cm12, inv_s, d, &status); /* Q30, 1/s */
     } else {
         status |= STATUS_SINGULAR;
     }
@@ -205,8 +255,9 @@ static uint8_t step_q(acc_kf_state_t *st, const uint8_t *in, uint8_t *out)
         int32_t a_f = lpf_q(p, s, a_m, &status);
         s->w2_prev = fx_mul(p->rbar, 30, fx_sub(a_f, s->af[1], &status), 24, 24, &status);
         if (braking && s->v > p->v_guard) {
-            int32_t slip = /* s->v > v_guard > 0 */
-                fx_sub(ONE_Q30, fx_div_by(v_m, 20, fx_recip(s->v), 20, 30, &status), &status);
+            fx_recip_t inv_v = fx_recip(s->v); /* s->v > v_guard > 0 */
+            int32_t slip = /* Q20 / Q20 -> Q30 */
+                fx_sub(ONE_Q30, quotient(v_m, inv_v, (int8_t)(inv_v.n - 4), &status), &status);
             if (slip < 0 || slip > p->s_max) {
                 status |= STATUS_CLAMPED;
                 slip = slip < 0 ? 0 : p->s_max;
