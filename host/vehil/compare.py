@@ -44,6 +44,7 @@ class Series:
     expected: int | None = None  # samples the run was to have; None if not known
     stop_signal: int | None = None  # the signal that interrupted the run
     score_from_s: float = 0.0  # truth metrics from this time on (the scenario's)
+    expect_flags: tuple[str, ...] = ()  # status flags the drive was built to raise
 
 
 @dataclass(frozen=True)
@@ -200,6 +201,24 @@ def _output(s: Series, j: int, name: str) -> OutputFigures:
     return OutputFigures(s.units.get(name, ""), reference, truth, bits)
 
 
+def _flags_raised(s: Series) -> dict[str, int]:
+    """Samples on which each status flag was set, for the flags that were."""
+    counts = {name: int(np.sum((s.status & bit) != 0)) for name, bit in SCHEMA.status.items()}
+    return {name: n for name, n in counts.items() if n}
+
+
+def _health(s: Series, raised: dict[str, int]) -> str | None:
+    """Why the estimator's health fails the run: it diverged where the drive was not built
+    for it, or a flag the drive was built to raise never fired. None if neither."""
+    if "DIVERGED" in raised and "DIVERGED" not in s.expect_flags:
+        first = int(np.flatnonzero(s.status & SCHEMA.status["DIVERGED"])[0])
+        return f"DIVERGED on {raised['DIVERGED']:,} samples (first at t = {s.t[first]:g} s)"
+    missing = [f for f in s.expect_flags if f not in raised]
+    if missing:
+        return f"expected {', '.join(missing)}, never raised"
+    return None
+
+
 def _verdict(s: Series, outputs: dict[str, OutputFigures]) -> Verdict:
     n = len(s.board)
     of = f"{n:,} of {s.expected:,}" if s.expected is not None else f"{n:,}"
@@ -213,10 +232,15 @@ def _verdict(s: Series, outputs: dict[str, OutputFigures]) -> Verdict:
         return Verdict("FAILED", f"incomplete: {of} samples", EXIT_ERROR)
     if n == 0:
         return Verdict("NOT CHECKED", "no samples", EXIT_FAIL)
+    raised = _flags_raised(s)
+    shown = "; flags: " + ", ".join(f"{k} x{v:,}" for k, v in raised.items()) if raised else ""
     failed = {name: o.failed() for name, o in outputs.items() if o.passed is False}
     if failed:
         where = "; ".join(f"{name} ({', '.join(checks)})" for name, checks in failed.items())
-        return Verdict("FAIL", f"out of tolerance: {where}", EXIT_FAIL)
+        return Verdict("FAIL", f"out of tolerance: {where}{shown}", EXIT_FAIL)
+    unhealthy = _health(s, raised)
+    if unhealthy:
+        return Verdict("FAIL", f"{unhealthy}{shown}", EXIT_FAIL)
     unchecked = [name for name, o in outputs.items() if o.passed is None]
     if len(unchecked) == len(outputs):
         return Verdict(
@@ -228,7 +252,7 @@ def _verdict(s: Series, outputs: dict[str, OutputFigures]) -> Verdict:
         f"{name} {'/'.join(o.not_checked())}" for name, o in outputs.items() if o.not_checked()
     ]
     note = f"; not checked: {', '.join(partial)}" if partial else ""
-    return Verdict("PASS", f"{of} samples checked{note}", EXIT_PASS)
+    return Verdict("PASS", f"{of} samples checked{note}{shown}", EXIT_PASS)
 
 
 def evaluate(s: Series) -> Figures:
@@ -329,6 +353,7 @@ def series_from_recording(rec: Any) -> Series:
         expected=rec.header.get("expected_samples"),
         stop_signal=end.get("signal"),
         score_from_s=rec.header.get("scenario", {}).get("score_from_s", 0.0),
+        expect_flags=tuple(rec.header.get("scenario", {}).get("expect_flags", ())),
     )
 
 
@@ -358,4 +383,5 @@ def series_from_run(run: Any) -> Series:
         expected=run.expected,
         stop_signal=run.stop_signal,
         score_from_s=p.scenario.score_from_s,
+        expect_flags=p.scenario.expect_flags,
     )

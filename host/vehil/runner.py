@@ -362,6 +362,7 @@ def _header(
             "sample_time": sc.sample_time,
             "closed_loop": sc.closed_loop,
             "score_from_s": sc.score_from_s,
+            "expect_flags": list(sc.expect_flags),
         },
         "estimator": {
             "name": spec.name,

@@ -18,6 +18,7 @@ from vehil.errors import VehilError
 from vehil.estimators.base import MODES, EstimatorSpec
 from vehil.paths import PROJECT_ROOT
 from vehil.perturb import Perturbation, declare
+from vehil.protocol.schema import SCHEMA
 
 SCENARIO_DIR = PROJECT_ROOT / "scenarios"
 LOG_FORMATS = ("csv", "mdf4", "vehil", "blf", "asc", "candump")
@@ -114,6 +115,9 @@ class Scenario:
     # Truth metrics count from this time on: the convergence from the initial guess is
     # the estimator's start-up, not its accuracy.
     score_from_s: float = 0.0
+    # Status flags the drive was built to raise (a health check's test): each must fire,
+    # and DIVERGED listed here does not fail the run.
+    expect_flags: tuple[str, ...] = ()
     sweep: dict[str, Perturbation] = field(default_factory=dict)  # [sweep]: `vehil sweep`'s
     raw: dict[str, Any] = field(default_factory=dict)  # the file as parsed, for the recording
 
@@ -317,6 +321,7 @@ def parse(data: dict[str, Any], where: str, path: Path | None = None) -> Scenari
         "figures",
         "closed_loop",
         "score_from_s",
+        "expect_flags",
     )
     est_t = top.sub("estimator")
     est_t.only("name", "mode", "params")
@@ -421,6 +426,10 @@ def parse(data: dict[str, Any], where: str, path: Path | None = None) -> Scenari
     figures = sc.table.get("figures", [])
     if not isinstance(figures, list) or not all(isinstance(f, str) for f in figures):
         raise sc.fail("figures", "must be a list of strings")
+    expect_flags = sc.table.get("expect_flags", [])
+    if not isinstance(expect_flags, list) or not all(f in SCHEMA.status for f in expect_flags):
+        names = ", ".join(sorted(SCHEMA.status))
+        raise sc.fail("expect_flags", f"must be a list of status flags from {names}")
     return Scenario(
         name=sc.text("name", path.stem if path else "scenario"),
         path=path,
@@ -440,6 +449,7 @@ def parse(data: dict[str, Any], where: str, path: Path | None = None) -> Scenari
         paper=sc.text("paper", ""),
         figures=tuple(figures),
         score_from_s=score_from_s,
+        expect_flags=tuple(expect_flags),
         sweep=sweep,
         raw=data,
     )

@@ -9,6 +9,7 @@ import pytest
 from rich.console import Console
 
 from vehil import compare, report
+from vehil.protocol.schema import SCHEMA
 from vehil.scenario import Tolerance
 
 
@@ -162,3 +163,29 @@ def test_truth_metrics_count_from_score_from_s(tmp_path) -> None:  # noqa: ANN00
     assert (t.max_abs, t.worst_k, t.from_s, t.passed) == (0.05, 250, 1.0, True)
     assert figures.passed and "from 1 s" in row(md, "y")
     assert data["outputs"]["y"]["truth"]["from_s"] == 1.0
+
+
+def test_divergence_fails_a_run_in_tolerance_and_other_flags_are_shown(tmp_path) -> None:  # noqa: ANN001
+    n = 50
+    ok = {"y": Tolerance(abs=0.1)}
+    s = series(np.ones(n), np.ones(n), ok)
+    s.status[10:20] = SCHEMA.status["DIVERGED"]
+    s.status[30] = SCHEMA.status["CLAMPED"]
+    md, data, figures = written(s, tmp_path)
+    assert figures.verdict.word == "FAIL" and not data["pass"]
+    assert (
+        figures.verdict.reason
+        == "DIVERGED on 10 samples (first at t = 0.1 s); flags: CLAMPED x1, DIVERGED x10"
+    )
+    assert "FAIL" in console_text(figures)
+    s.status[10:20] = 0
+    figures = compare.evaluate(s)
+    assert figures.verdict.word == "PASS" and figures.verdict.reason.endswith("flags: CLAMPED x1")
+
+
+def test_a_drive_built_to_raise_a_flag_fails_when_it_does_not() -> None:
+    n = 50
+    s = series(np.ones(n), np.ones(n), {"y": Tolerance(abs=0.1)}, expect_flags=("DIVERGED",))
+    assert str(compare.evaluate(s).verdict) == "FAIL: expected DIVERGED, never raised"
+    s.status[40:] = SCHEMA.status["DIVERGED"]
+    assert compare.evaluate(s).verdict.word == "PASS"
