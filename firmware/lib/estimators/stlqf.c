@@ -266,7 +266,9 @@ static int64_t shift_up(int64_t x, int8_t up)
     if (up > 0) {
         return (int64_t)((uint64_t)x << up);
     }
-    return up < -62 ? 0 : (x + ((int64_t)1 << (-up - 1))) >> -up;
+    /* floor((x + 2^(s-1)) 2^-s) = floor((floor(x 2^(1-s)) + 1) / 2): one 64-bit shift
+     * (a library call on the AVR), not two */
+    return up < -62 ? 0 : ((x >> (-up - 1)) + 1) >> 1;
 }
 
 /* The shift k that brings a peak of that many bits to the most bits <= limit. */
@@ -402,11 +404,12 @@ static void filter_q(const stlqf_q_t *q, const int32_t *x, const int32_t h[2][3]
     int64_t row[STLQF_COLS];
     for (uint8_t c = 0; c < 3u; c++) {
         int32_t d1 = x[c] - h[0][c], d0 = h[0][c] - h[1][c]; /* the bounds keep these */
-        int64_t f = (int64_t)x[c] * 64 + fx_round_shift((int64_t)q->c1 * d1, 10) +
-                    (int64_t)q->c2 * ((int64_t)d1 - d0);
+        int64_t c2_d0 = fx_mul64(q->c2, d0);
+        int64_t f = fx_mul64(x[c], 64) + fx_round_shift(fx_mul64(q->c1, d1), 10) +
+                    (fx_mul64(q->c2, d1) - c2_d0);
         if (c < 2u) {
             row[c] = f;
-            row[2u + c] = fx_round_shift((int64_t)q->c1 * h[0][c], 10) + 2 * (int64_t)q->c2 * d0;
+            row[2u + c] = fx_round_shift(fx_mul64(q->c1, h[0][c]), 10) + (c2_d0 + c2_d0);
         } else {
             row[4] = f;
         }

@@ -143,6 +143,14 @@ FX_MUL_KERNEL(fx_mul_rs, a, fx_mul_rs_c)
  * STLQF and RLS. */
 FX_MUL_KERNEL(fx_mul_shr, h, fx_mul_shr_c)
 
+/* a · b exact in int64: on the AVR the hardware MUL column by column (fx_mul_avr.S, ~60
+ * cycles, where avr-gcc's widening multiply calls a library routine of ~200). */
+#if defined(__AVR__)
+int64_t fx_mul64(int32_t a, int32_t b);
+#else
+FX_INLINE int64_t fx_mul64(int32_t a, int32_t b) { return (int64_t)a * b; }
+#endif
+
 /* fx_mul_shr for a shift known only at run time, 1 <= s <= 62 (0 outside): on the AVR a
  * jump through a table to the assembly entry for that shift (fx_mul_avr.S), so the product
  * is still ~165 cycles and the same bits. status before s: the entry finds a, b and status

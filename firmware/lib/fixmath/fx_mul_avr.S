@@ -230,6 +230,14 @@ ENTRIES(41) $ ENTRIES(42) $ ENTRIES(43) $ ENTRIES(44) $ ENTRIES(45) $ ENTRIES(46
 ENTRIES(49) $ ENTRIES(50) $ ENTRIES(51) $ ENTRIES(52) $ ENTRIES(53) $ ENTRIES(54) $ ENTRIES(55) $ ENTRIES(56)
 ENTRIES(57) $ ENTRIES(58) $ ENTRIES(59) $ ENTRIES(60) $ ENTRIES(61) $ ENTRIES(62)
 
+; fx_mul64(a, b): the exact int64 product, in r25:r18 where MUL64 leaves it (~60 cycles;
+; avr-gcc's widening multiply calls a library routine of ~200).
+        .section .text.fx_mul64, "ax", @progbits
+        .global fx_mul64
+fx_mul64:
+        MUL64
+        ret
+
 ; fx_mul_shr_n(a, b, status, s): fx_mul_hN for a shift known only at run time, by a jump
 ; through a table of the entries (in .progmem, below 64 KB: LPM with a 16-bit Z; gs()
 ; lets the linker add a stub where an entry lies past ijmp's 128 KB). a, b and status sit
