@@ -255,26 +255,26 @@ static int32_t shift_down(int32_t v, uint8_t down)
     return v >> down;
 }
 
-/* x · 2^up, rounded (half up) when up < 0: by shifts, since an int64 times a power of
- * two is a full 64-bit product on the AVR. The callers keep x 2^up within int64; GCC
- * (both builds) shifts a negative int64 arithmetically and wraps the unsigned cast. */
-static int64_t shift_up(int64_t x, int8_t up)
+/* The top half of v: by byte moves on the AVR, little-endian (avr-gcc calls a library
+ * routine for a 64-bit shift, even by a constant). */
+static uint32_t high_word(uint64_t v)
 {
-    if (up == 0) {
-        return x;
-    }
-    if (up > 0) {
-        return (int64_t)((uint64_t)x << up);
-    }
-    /* floor((x + 2^(s-1)) 2^-s) = floor((floor(x 2^(1-s)) + 1) / 2): one 64-bit shift
-     * (a library call on the AVR), not two */
-    return up < -62 ? 0 : ((x >> (-up - 1)) + 1) >> 1;
+#if defined(__AVR__)
+    uint32_t h;
+    memcpy(&h, (const uint8_t *)&v + 4, sizeof h);
+    return h;
+#else
+    return (uint32_t)(v >> 32);
+#endif
 }
 
-/* The shift k that brings a peak of that many bits to the most bits <= limit. */
-static int8_t fit(uint8_t peak_bits, int32_t limit)
+/* x 2^-k rounded half up (1 <= k <= 62) for a result below 2^28: one 64-bit shift to the
+ * rounding bit (a library call on the AVR), the rest in int32. GCC (both builds) shifts
+ * a negative int64 arithmetically. */
+static int32_t round_down64(int64_t x, uint8_t k)
 {
-    return (int8_t)(peak_bits - longit_bit_length((uint32_t)limit));
+    int32_t y = (int32_t)(x >> (k - 1u));
+    return (y >> 1) + (y & 1);
 }
 
 /* in[0..n) · 2^-k (rounded half up) as int16 with |out| <= limit (14 bits) and as many
@@ -324,26 +324,38 @@ static int8_t normalize(const int32_t *in, int16_t *out, uint8_t n, int32_t limi
     return k;
 }
 
-/* The same from int64 (the window's exact rows, the residual). */
-static int8_t normalize64(const int64_t *in, int32_t *out, uint8_t n, int32_t limit)
+/* The same from int64 (the window's exact rows) to |out| <= ROW_LIMIT (27 bits); k = 0
+ * for zeros. */
+static int8_t normalize64(const int64_t *in, int32_t *out, uint8_t n)
 {
     uint64_t peak = 0;
     for (uint8_t i = 0; i < n; i++) {
         uint64_t mag = magnitude(in[i]);
         peak = mag > peak ? mag : peak;
     }
-    uint32_t top = (uint32_t)(peak >> 32);
+    uint32_t top = high_word(peak);
     int8_t k = peak == 0u ? 0
-                          : fit(top != 0u ? (uint8_t)(32u + longit_bit_length(top))
-                                          : longit_bit_length((uint32_t)peak),
-                                limit);
-    if (k > 0 && ((peak >> (k - 1)) + 1u) >> 1 > (uint64_t)limit) {
+                          : (int8_t)((top != 0u ? (uint8_t)(32u + longit_bit_length(top))
+                                                : longit_bit_length((uint32_t)peak)) -
+                                     27);
+    if (k <= 0) { /* |in| < 2^27 */
+        for (uint8_t i = 0; i < n; i++) {
+            out[i] = (int32_t)((uint32_t)(int32_t)in[i] << -k);
+        }
+        return k;
+    }
+    for (;;) { /* one bit more where rounding up reached 2^27 */
+        uint32_t big = 0;
+        for (uint8_t i = 0; i < n; i++) {
+            out[i] = round_down64(in[i], (uint8_t)k);
+            uint32_t mag = out[i] < 0 ? (uint32_t)0 - (uint32_t)out[i] : (uint32_t)out[i];
+            big = mag > big ? mag : big;
+        }
+        if (big <= (uint32_t)ROW_LIMIT) {
+            return k;
+        }
         k++;
     }
-    for (uint8_t i = 0; i < n; i++) {
-        out[i] = k > 0 ? (int32_t)shift_up(in[i], (int8_t)-k) : (int32_t)in[i] * ((int32_t)1 << -k);
-    }
-    return k;
 }
 
 /* x = R col as int16 (X_LIMIT); returns x's exponent relative to col's (R at its own
@@ -385,7 +397,7 @@ static uint8_t configure_q(stlqf_q_t *q, const uint8_t *params, const int32_t ba
         col[1][j] = (int64_t)q->shared.g_cos * 65536;
     }
     for (uint8_t c = 0; c < 2u; c++) {
-        int8_t k = normalize64(col[c], narrow, STLQF_ROWS, ROW_LIMIT);
+        int8_t k = normalize64(col[c], narrow, STLQF_ROWS);
         q->e_g[c] = (int8_t)(k + weigh(q->band, narrow, q->x_g[c]) - 42);
     }
     q->g_gg[0] = dot_q(q->x_g[0], q->x_g[0]);
@@ -417,11 +429,11 @@ static void filter_q(const stlqf_q_t *q, const int32_t *x, const int32_t h[2][3]
     for (uint8_t c = 0; c < 2u; c++) {
         const int64_t pair[2] = {row[c], row[2u + c]};
         int32_t out[2];
-        k[c] = normalize64(pair, out, 2, ROW_LIMIT);
+        k[c] = normalize64(pair, out, 2);
         m[c] = out[0];
         m[2u + c] = out[1];
     }
-    k[2] = normalize64(&row[4], &m[4], 1, ROW_LIMIT);
+    k[2] = normalize64(&row[4], &m[4], 1);
 }
 
 /* a b 2^-n rounded half up, for a product that fits int32 at that scale: a kernel for
