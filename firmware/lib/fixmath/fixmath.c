@@ -176,9 +176,11 @@ fx_recip_t fx_recip(int32_t b)
     uint32_t x = (uint32_t)b; /* x 2^-31 in [1/2, 1) once normalised */
     uint8_t n = (uint8_t)normalize30(&x); /* b <= INT32_MAX: a left shift */
     uint8_t k = (uint8_t)((uint8_t)(x >> 24) >> 1) & 31u; /* (x >> 25) by bytes */
-    uint16_t f = (uint16_t)((x >> 8) >> 1);                /* the next 16 bits */
+    /* the next 16 bits, (x >> 9) by bytes and one 16-bit shift (GCC loops nine times) */
+    uint16_t f = (uint16_t)((uint16_t)(x >> 8) >> 1 | (uint16_t)((uint8_t)(x >> 24) & 1u) << 15);
     uint16_t lo = rom_u16(ROM_AT(recip_table, k));
     uint16_t d = (uint16_t)(lo - rom_u16(ROM_AT(recip_table, k + 1u)));
+    __asm__("" : "+r"(d), "+r"(f)); /* one 16 x 16 hardware product, not a 32 x 32 call */
     int32_t y = (int32_t)(((uint32_t)lo << 16 >> 1) - ((uint32_t)d * f >> 1)); /* Q29 */
     uint8_t st = 0; /* nothing here can saturate: x y is within 1e-3 of 1 */
     int32_t t = fx_mul_rs((int32_t)x, y, 31, &st);            /* x y, Q29 */
