@@ -59,6 +59,8 @@ void port_rx_release(uint8_t n) { (void)n; } /* the bytes are the caller's */
 void port_flush(void) {}
 uint16_t port_rx_buffer(void) { return NATIVE_RX_BUFFER; }
 uint16_t port_rx_overruns(void) { return 0; }
+uint16_t port_irq_mark(void) { return 0; } /* no interrupts: the bytes are the caller's */
+uint16_t port_irq_cycles(uint16_t mark) { return (uint16_t)(mark - mark); }
 uint32_t port_baud(void) { return baud; }
 uint16_t port_baud_error(uint32_t b) { return b == 0 ? 0xFFFFu : 0; }
 void port_set_baud(uint32_t b) { baud = b; }

@@ -75,6 +75,18 @@ void port_tx_close(uint8_t code) { uart_tx_close(code); }
 void port_flush(void) { uart_flush(); }
 uint16_t port_rx_buffer(void) { return UART_RX_SIZE - 1u; }
 uint16_t port_rx_overruns(void) { return uart_rx_overruns(); }
+
+/* The rings' indices count the bytes the interrupts moved (mod 256: no more than a
+ * ring's worth can move during a step, the host keeping no more in flight), and each
+ * byte costs its interrupt a fixed count. */
+uint16_t port_irq_mark(void) { return (uint16_t)(uart_rx_head | ((uint16_t)uart_tx_tail << 8)); }
+
+uint16_t port_irq_cycles(uint16_t mark)
+{
+    uint8_t received = (uint8_t)(uart_rx_head - (uint8_t)mark);
+    uint8_t sent = (uint8_t)(uart_tx_tail - (uint8_t)(mark >> 8));
+    return (uint16_t)(received * UART_RX_ISR_CYCLES + sent * UART_TX_ISR_CYCLES);
+}
 uint32_t port_baud(void) { return uart_baud(); }
 
 uint16_t port_baud_error(uint32_t baud)

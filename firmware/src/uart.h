@@ -21,6 +21,11 @@ void uart_tx_close(uint8_t code);
 
 /* The TX ring (uart.c; the UDRE interrupt in uart_isr.S advances the tail). Appending
  * is inline: every byte of every reply goes through it. */
+/* Each interrupt's cycles per byte, call and return included (uart_isr.S; vehil
+ * profile --functions counts them). */
+#define UART_RX_ISR_CYCLES 49u
+#define UART_TX_ISR_CYCLES 41u
+extern volatile uint8_t uart_rx_head;
 extern volatile uint8_t uart_tx_buf[UART_TX_SIZE];
 extern volatile uint8_t uart_tx_tail;
 extern uint8_t uart_tx_write;

@@ -13,6 +13,7 @@ keeps up with it: the bench measures how fast simavr runs free and says so.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import statistics
 import tempfile
@@ -21,8 +22,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from rich.console import Console
 
-from vehil import profile
+from vehil import profile, runner, scenario
 from vehil.boards import BoardOptions, SimavrOptions, make_board, open_board
 from vehil.link import Link
 from vehil.ping import run_ping
@@ -36,6 +38,9 @@ STREAM_WINDOW = 8
 STREAM_BAUDS = (1_000_000, 2_000_000)
 ROUND_TRIP_BAUDS = (115200, 1_000_000)
 ROUND_TRIP_LIMIT = 1.15  # p99 against wire + board compute: the target
+# Steps in lockstep, the frames behind each arriving while it runs, against stop-and-wait.
+STEP_SCENARIOS = ("braking/manf-hard-stop-fixed", "stlqf/heavy-rolling-fixed")
+STEP_SAMPLES = 1000
 
 
 def _set_baud(link: Link, baud: int) -> None:
@@ -119,6 +124,24 @@ def round_trips(count: int, latency_cycles: float) -> list[dict[str, Any]]:
     return rows
 
 
+def step_cycles() -> list[dict[str, Any]]:
+    """Median cycles per step (RESULT's, the probe subtracted) stop-and-wait and in
+    lockstep: in lockstep the receive interrupts of the frames queued behind a step
+    land in it and count in its cycles."""
+    rows = []
+    quiet = Console(quiet=True)
+    for name in STEP_SCENARIOS:
+        sc = scenario.load(name)
+        sc = dataclasses.replace(sc, duration=STEP_SAMPLES * sc.sample_time)
+        medians = {}
+        for label, window in (("stop_and_wait", 1), ("lockstep", None)):
+            r = runner.run(sc, "simavr", window=window, console=quiet)
+            medians[label] = float(np.median(r.cycles))
+        ratio = medians["lockstep"] / medians["stop_and_wait"]
+        rows.append({"scenario": name, **medians, "lockstep_over_stop_and_wait": ratio})
+    return rows
+
+
 def run(count: int) -> dict[str, Any]:
     figures: dict[str, Any] = {}
     with open_board("simavr") as link:
@@ -127,6 +150,7 @@ def run(count: int) -> dict[str, Any]:
     figures["reply_latency_cycles"] = reply_latency(min(count, 300))
     figures["simavr_speed"] = simavr_speed()
     figures["round_trips"] = round_trips(count, figures["reply_latency_cycles"]["median"])
+    figures["step_cycles"] = step_cycles()
     return figures
 
 
@@ -173,6 +197,14 @@ def report(f: dict[str, Any]) -> str:
             f"  {t['baud']:>9,} baud: p50 {t['p50_ms']:.3f} ms, p99 {t['p99_ms']:.3f} ms, wire + "
             f"compute {t['wire_plus_compute_ms']:.3f} ms: p99 {t['p99_over_bound']:.2f} x "
             f"(target <= {ROUND_TRIP_LIMIT})"
+        )
+    lines.append(
+        "cycles per estimator step, median, stop-and-wait and lockstep (target: within 5 %):"
+    )
+    for c in f["step_cycles"]:
+        lines.append(
+            f"  {c['scenario']}: {c['stop_and_wait']:,.0f} / {c['lockstep']:,.0f} cycles, "
+            f"lockstep {(c['lockstep_over_stop_and_wait'] - 1) * 100:+.1f} %"
         )
     return "\n".join(lines)
 

@@ -33,6 +33,26 @@ typedef struct {
 
 static const request_t unsolicited = {0, UNSOLICITED_SEQ, NULL, 0};
 
+/* A step's cycles: the cycle counter's, less the UART interrupts that landed in the
+ * step (in lockstep the frames behind it arrive while it runs, and the last reply may
+ * still be going out), so a step costs the same in lockstep as stop-and-wait. */
+typedef struct {
+    uint32_t start;
+    uint16_t mark;
+} stopwatch_t;
+
+static inline void stopwatch_start(stopwatch_t *w)
+{
+    w->start = port_cycles();
+    w->mark = port_irq_mark();
+}
+
+static inline uint32_t stopwatch_read(const stopwatch_t *w)
+{
+    uint16_t irq = port_irq_cycles(w->mark);
+    return port_cycles() - w->start - irq;
+}
+
 static struct {
     frame_rx_t rx; /* the request being received, decoded and checked byte by byte */
     uint8_t body[VEHIL_MAX_BODY]; /* replies other than PONG and RESULT are packed here */
@@ -275,10 +295,11 @@ static void on_sample(const request_t *r)
      * the RESULT cache slot the reply is sent from. */
     uint8_t *body = results_slot((uint16_t)(MSG_RESULT_FIXED_SIZE + out_max));
     uint8_t out_len = 0;
-    uint32_t start = port_cycles();
+    stopwatch_t watch;
+    stopwatch_start(&watch);
     uint8_t status = est->step(estimator_state(), r->body + MSG_SAMPLE_FIXED_SIZE, in_len,
                                body + MSG_RESULT_FIXED_SIZE, &out_len);
-    uint32_t elapsed = port_cycles() - start;
+    uint32_t elapsed = stopwatch_read(&watch);
     /* The probe's own cost is measured once at boot; a noisy host clock can undercut it,
      * and an emulated timer (QEMU) can even step back: both read as 0, never as a wrap. */
     uint32_t cycles = (int32_t)elapsed > (int32_t)core.probe_cycles ? elapsed - core.probe_cycles : 0u;
@@ -389,8 +410,9 @@ void dispatch_init(void)
 {
     memset(&core, 0, sizeof core);
     frame_rx_reset(&core.rx, 0); /* requests answer nothing */
-    uint32_t t0 = port_cycles();
-    core.probe_cycles = (uint16_t)(port_cycles() - t0);
+    stopwatch_t watch;
+    stopwatch_start(&watch);
+    core.probe_cycles = (uint16_t)stopwatch_read(&watch);
     core.overruns_reported = port_rx_overruns();
     send_info(&unsolicited);
 }

@@ -27,6 +27,10 @@ void port_rx_release(uint8_t n);
 uint16_t port_rx_buffer(void);
 /* Bytes dropped because the RX buffer was full, since boot (saturating). */
 uint16_t port_rx_overruns(void);
+/* A mark of the UART interrupts' work so far, and the cycles they have taken since a
+ * mark: a step's cycles are its own, whatever bytes arrive or leave while it runs. */
+uint16_t port_irq_mark(void);
+uint16_t port_irq_cycles(uint16_t mark);
 
 uint32_t port_baud(void);
 /* 0 if the UART can run at baud, else the |error| in 0.01 % (0xFFFF: not at all). */
