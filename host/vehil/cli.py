@@ -10,13 +10,14 @@ import sys
 import threading
 from collections.abc import Iterator, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from rich.markup import escape
 from rich.table import Table
 
 from vehil.boards import (
     DEFAULT_BOARD,
+    LABGRID_PREFIX,
     VIRTUAL_BOARDS,
     Board,
     BoardOptions,
@@ -29,6 +30,9 @@ from vehil.link import BoardInfo, Link
 from vehil.paths import runs_dir
 from vehil.ping import PingSummary, run_ping
 from vehil.terminal import make_console
+
+if TYPE_CHECKING:
+    from vehil.boards.labgrid import LabgridOptions
 
 console = make_console()
 
@@ -51,7 +55,8 @@ def _add_board_options(p: argparse.ArgumentParser, default: str = DEFAULT_BOARD)
     p.add_argument(
         "--board",
         default=default,
-        help=f"{', '.join(VIRTUAL_BOARDS)}, or a serial port / pyserial URL (default {default})",
+        help=f"{', '.join(VIRTUAL_BOARDS)}, labgrid:PLACE (or labgrid:ENV.yaml), or a serial "
+        f"port / pyserial URL (default {default})",
     )
     p.add_argument(
         "--baud",
@@ -66,6 +71,13 @@ def _add_board_options(p: argparse.ArgumentParser, default: str = DEFAULT_BOARD)
         help="inject link faults once the board is up: drop=P,flip=P,dup=P,insert=P "
         "(per byte, both ways), delay_ms=D, reboot_after=N (writes), seed=N",
     )
+    p.add_argument(
+        "--acquire-timeout",
+        type=float,
+        default=60.0,
+        metavar="S",
+        help="labgrid:PLACE boards: how long to wait for a place someone else holds (default 60)",
+    )
     _add_json_option(p)
 
 
@@ -78,12 +90,20 @@ def _options(args: argparse.Namespace) -> BoardOptions:
     return BoardOptions(timeout_s=args.timeout, faults=args.faults)
 
 
+def _labgrid(args: argparse.Namespace) -> LabgridOptions | None:
+    if not (args.board or "").startswith(LABGRID_PREFIX):
+        return None
+    from vehil.boards.labgrid import LabgridOptions
+
+    return LabgridOptions(wait_s=getattr(args, "acquire_timeout", 60.0))
+
+
 def _board(args: argparse.Namespace) -> Board:
-    return make_board(args.board, _options(args))
+    return make_board(args.board, _options(args), labgrid=_labgrid(args))
 
 
 def _connect(args: argparse.Namespace):  # noqa: ANN202
-    return open_board(args.board, _options(args))
+    return open_board(args.board, _options(args), labgrid=_labgrid(args))
 
 
 def _maybe_switch_baud(link: Link, baud: int | None) -> None:
@@ -176,7 +196,7 @@ def cmd_flash(args: argparse.Namespace) -> int:
     if args.port:
         board: Board = SerialBoard(args.port, BoardOptions(timeout_s=args.timeout))
     elif args.board:
-        board = make_board(args.board, BoardOptions(timeout_s=args.timeout))
+        board = make_board(args.board, BoardOptions(timeout_s=args.timeout), labgrid=_labgrid(args))
     else:
         raise NoPort(
             f"give the board's port (--port /dev/ttyACM0; ports seen: {ports_seen()}) "

@@ -251,11 +251,15 @@ def flashed(
     check_baud(baud)
     try:
         url = board.start()
-        board.enter_bootloader(url)
-        port = avrdude_port(url)
-        result = run_avrdude(
-            port, image, part=part, baud=baud, verify_with=verify_with, timeout_s=timeout_s
-        )
+        with board.programmer_port(url) as programmer:
+            result = run_avrdude(
+                avrdude_port(programmer),
+                image,
+                part=part,
+                baud=baud,
+                verify_with=verify_with,
+                timeout_s=timeout_s,
+            )
         with board.session(url) as link:
             yield result, link
     finally:

@@ -12,6 +12,7 @@ recording keeps every sample up to that point and says how the run ended.
 from __future__ import annotations
 
 import dataclasses
+import re
 import signal
 import time
 from collections.abc import Callable, Iterator
@@ -340,7 +341,7 @@ def native_outputs(scenario: Scenario) -> np.ndarray:
 def default_recording_path(scenario: Scenario, board: str, root: Path | None = None) -> Path:
     root = root or runs_dir()
     stamp = datetime.now(UTC).strftime("%Y%m%dT%H%M%SZ")
-    board_tag = board if board.isidentifier() else "port"
+    board_tag = re.sub(r"[^\w.-]+", "-", board).strip("-") or "port"
     return root / f"{scenario.name}-{board_tag}-{scenario.mode.lower()}-{stamp}" / "run.arrow"
 
 

@@ -1,13 +1,16 @@
 """Boards: where the firmware runs, each reached through a pyserial URL.
 
-`open_board(spec)` takes a name in VIRTUAL_BOARDS, or anything pyserial can
-open (a device such as /dev/ttyACM0, or a URL such as socket://host:port), and
+`open_board(spec)` takes a name in VIRTUAL_BOARDS, `labgrid:PLACE` (a place of a
+labgrid board farm, boards/labgrid.py), or anything pyserial can open (a device such
+as /dev/ttyACM0, or a URL such as socket://host:port), and
 returns a context manager that starts the board, waits for its ready frame,
 yields a Link with the board's INFO read, and stops the board on the way out,
 on errors and Ctrl-C too.
 """
 
 from __future__ import annotations
+
+from typing import TYPE_CHECKING
 
 from vehil.boards.base import Board, BoardOptions, ports_seen
 from vehil.boards.native import NativeBoard
@@ -22,6 +25,9 @@ from vehil.boards.simavr import (
     SimavrRealtimeBoard,
 )
 from vehil.errors import NoPort
+
+if TYPE_CHECKING:
+    from vehil.boards.labgrid import LabgridOptions
 
 VIRTUAL_BOARDS: dict[str, type[Board]] = {
     "simavr": SimavrBoard,
@@ -40,10 +46,23 @@ def _looks_like_a_port(spec: str) -> bool:
     return "/" in spec or "://" in spec or spec.upper().startswith("COM") or spec.startswith("\\")
 
 
+LABGRID_PREFIX = "labgrid:"
+
+
 def make_board(
-    spec: str, options: BoardOptions | None = None, simavr: SimavrOptions | None = None
+    spec: str,
+    options: BoardOptions | None = None,
+    simavr: SimavrOptions | None = None,
+    labgrid: LabgridOptions | None = None,
 ) -> Board:
-    """The board SPEC names; `simavr` options only for a simavr board."""
+    """The board SPEC names; `simavr` options only for a simavr board, `labgrid` ones
+    only for a labgrid place."""
+    if spec.startswith(LABGRID_PREFIX):
+        from vehil.boards.labgrid import LabgridBoard  # labgrid (gRPC) loads only when used
+
+        return LabgridBoard(spec[len(LABGRID_PREFIX) :], options, labgrid)
+    if labgrid is not None:
+        raise NoPort(f"labgrid options need a labgrid:PLACE board, not {spec!r}")
     cls = VIRTUAL_BOARDS.get(spec)
     if simavr is not None:
         if cls is None or not issubclass(cls, SimavrBoard):
@@ -53,8 +72,8 @@ def make_board(
         return cls(options)
     if not _looks_like_a_port(spec):
         raise NoPort(
-            f"no board {spec!r}: give one of {', '.join(VIRTUAL_BOARDS)}, or a serial port "
-            f"or pyserial URL (ports seen: {ports_seen()})"
+            f"no board {spec!r}: give one of {', '.join(VIRTUAL_BOARDS)}, labgrid:PLACE, "
+            f"or a serial port or pyserial URL (ports seen: {ports_seen()})"
         )
     return SerialBoard(spec, options)
 
@@ -63,14 +82,16 @@ def open_board(
     spec: str = DEFAULT_BOARD,
     options: BoardOptions | None = None,
     simavr: SimavrOptions | None = None,
+    labgrid: LabgridOptions | None = None,
 ):  # noqa: ANN201
-    return make_board(spec, options, simavr).session()
+    return make_board(spec, options, simavr, labgrid).session()
 
 
 __all__ = [
     "Board",
     "BoardOptions",
     "DEFAULT_BOARD",
+    "LABGRID_PREFIX",
     "SimavrOptions",
     "VIRTUAL_BOARDS",
     "make_board",

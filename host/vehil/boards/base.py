@@ -87,8 +87,10 @@ class Board:
     def stop(self) -> None:
         """Takes the board down; safe to call twice and after a failed start."""
 
-    def enter_bootloader(self, url: str) -> None:
-        """Before avrdude runs: make sure the bootloader is what answers."""
+    @contextlib.contextmanager
+    def programmer_port(self, url: str) -> Iterator[str]:
+        """The URL avrdude programs the board through, its bootloader answering there."""
+        yield url
 
     def open_port(self, url: str) -> serial.SerialBase:
         """Opens the board's port, tried again for `connect_timeout_s` (a board that is

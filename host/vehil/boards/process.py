@@ -9,6 +9,7 @@ import signal
 import subprocess
 import tempfile
 import time
+from pathlib import Path
 
 import serial
 
@@ -31,7 +32,7 @@ def _die_with_parent() -> None:
 class BoardProcess:
     """Starts a command in its own process group; stderr goes to a file we can quote."""
 
-    def __init__(self, argv: list[str], name: str):
+    def __init__(self, argv: list[str], name: str, cwd: Path | None = None):
         self.argv = argv
         self.name = name
         self._stderr = tempfile.TemporaryFile()  # noqa: SIM115  (lives as long as the process)
@@ -39,6 +40,7 @@ class BoardProcess:
             self.proc = subprocess.Popen(
                 argv,
                 stdin=subprocess.DEVNULL,
+                cwd=cwd,
                 stdout=subprocess.PIPE,
                 stderr=self._stderr,
                 start_new_session=True,  # Ctrl-C reaches us, and we stop it in order

@@ -3,11 +3,23 @@ or any other pyserial URL."""
 
 from __future__ import annotations
 
+import contextlib
 import time
+from collections.abc import Iterator
+
+import serial
 
 from vehil.boards.base import Board, BoardOptions
 from vehil.errors import BoardTimeout
 from vehil.link import Link
+
+
+def reset_pulse(port: serial.SerialBase) -> None:
+    """DTR low then high: a Mega's auto-reset circuit resets the chip into its bootloader."""
+    port.dtr = False
+    time.sleep(0.1)
+    port.dtr = True
+    time.sleep(0.05)
 
 
 class SerialBoard(Board):
@@ -26,17 +38,16 @@ class SerialBoard(Board):
     def start(self) -> str:
         return self.port
 
-    def enter_bootloader(self, url: str) -> None:
+    @contextlib.contextmanager
+    def programmer_port(self, url: str) -> Iterator[str]:
         """A DTR pulse resets a Mega into its bootloader (avrdude's wiring programmer
         pulses again). Opening the port here first says clearly when it is missing or busy."""
         port = self.open_port(url)
         try:
-            port.dtr = False
-            time.sleep(0.1)
-            port.dtr = True
-            time.sleep(0.05)
+            reset_pulse(port)
         finally:
             port.close()
+        yield url
 
     def wait_ready(self, link: Link) -> None:
         """Waits for the boot frame; a board that did not reset on open is asked directly."""
