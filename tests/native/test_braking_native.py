@@ -52,6 +52,22 @@ def test_the_uiiekf_flags_a_car_whose_constants_it_was_not_given(run_scenario) -
     assert np.mean(flagged == np.array(reference.diverged)) > 0.99
 
 
+def test_the_uiiekf_says_where_standing_leaves_its_estimates_undetermined(run_scenario) -> None:  # noqa: ANN001, E501
+    """Standing, d̂ is the wheels' noise amplified and v̂ the model's: ILL_CONDITIONED on
+    exactly the steps where both wheels turn slower than v_min, and on no moving step."""
+    result = run_scenario("uiiekf3-stop-and-stand", board="native")
+    result.assert_passed()
+    flagged = (result.run.status & SCHEMA.status["ILL_CONDITIONED"]) != 0
+    reference = uiiekf.Uiiekf(result.run.prepared.scenario.params)
+    for u in result.run.prepared.inputs:
+        reference.step(u)
+    assert 200 < flagged.sum() < 500
+    assert np.array_equal(flagged, np.array(reference.standstill))
+    moving = result.run.prepared.truth()["v"] > 1.5
+    assert not flagged[moving].any()
+    assert result.figures.status["DIVERGED"] == 0
+
+
 def test_the_uiiekf_flags_a_dead_sensor_and_wheels_read_backwards(built) -> None:  # noqa: ANN001
     spec = uiiekf.SPEC
     dead = [[92.6, 92.6]] * 50 + [[92.6 - 0.1 * k, 0.0] for k in range(100)]  # rear reads 0

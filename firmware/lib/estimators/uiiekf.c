@@ -8,7 +8,7 @@
 
 enum {
     P_T, P_N, P_ITER, P_FORM, P_C1, P_C2, P_C3, P_P0, P_QV, P_QLAT, P_QW, P_R,
-    P_M, P_RW, P_IW, P_KB, P_PSI, P_HCG, P_LF, P_LR, P_VMAX, P_NISMAX, N_PARAMS
+    P_M, P_RW, P_IW, P_KB, P_PSI, P_HCG, P_LF, P_LR, P_VMAX, P_NISMAX, P_VMIN, P_NISWIN, N_PARAMS
 };
 
 static const ROM param_range_t ranges[N_PARAMS] = {
@@ -17,16 +17,13 @@ static const ROM param_range_t ranges[N_PARAMS] = {
     {0.0f, 10.0f, 0},     {0.0f, 10.0f, 0},  {0.0f, 100.0f, 0}, {1e-6f, 100.0f, 0},
     {100.0f, 5000.0f, 0}, {0.1f, 1.0f, 0},   {0.05f, 50.0f, 0}, {0.0f, 1.0f, 0},
     {0.1f, 1.5f, 0},      {0.1f, 2.0f, 0},   {0.3f, 4.0f, 0},   {0.3f, 4.0f, 0},
-    {1.0f, 200.0f, 0},    {1.0f, 1e6f, 0},
+    {1.0f, 200.0f, 0},    {1.0f, 1e6f, 0},   {0.0f, 10.0f, 0},  {0.1f, 100.0f, 0},
 };
 
-/* Table 2's values the filter does not take as parameters (yaw inertia, drag), gravity,
- * and the health check's averaging time and standstill speed. */
+/* Table 2's values the filter does not take as parameters (yaw inertia, drag), gravity. */
 #define I_Z 1627.0f
 #define DRAG_MOMENT (0.5f * 1.027f * 0.32f * 1.87f * 1.16f) /* ½ ρ C_d A_f H_a */
 #define GRAVITY 9.81f
-#define NIS_WINDOW 1.0f /* s */
-#define V_MIN 1.0f      /* m/s */
 
 /* One wheel's braking-positive forces and their partials by (v, v_lat, ω). The filter
  * assumes δ = 0, and at v_lat = 0 the lateral block decouples from the wheels exactly
@@ -265,8 +262,14 @@ static uint8_t uiiekf_step(void *state, const uint8_t *in, uint8_t in_len, uint8
         for (uint8_t i = 0; i < passes && status == 0; i++) {
             status |= measurement_update(st, z, i == 0u ? &nis : NULL);
         }
-        if (status == 0 && (z[0] >= p->w_min || z[1] >= p->w_min)) {
-            st->nis += p->alpha * (nis - st->nis);
+        if (z[0] >= p->w_min || z[1] >= p->w_min) {
+            if (status == 0) {
+                st->nis += p->alpha * (nis - st->nis);
+            }
+        } else {
+            /* Standstill: the slip model means nothing, d̂ is the wheels' noise times
+             * |(C B)⁺| and v̂ is the model's alone (docs/estimators/uiiekf.md). */
+            status |= STATUS_ILL_CONDITIONED;
         }
         uint8_t healthy = estimate_ok(st);
         v_out = st->x[0];
@@ -326,11 +329,11 @@ static uint8_t uiiekf_configure(void *state, uint8_t mode, const uint8_t *params
         .g0 = psi * (c1 * c2 - c3),
         .cb = {cb0, cb1},
         .inv_cb2 = 1.0f / (cb0 * cb0 + cb1 * cb1),
-        .alpha = v[P_T] / NIS_WINDOW,
+        .alpha = v[P_T] / v[P_NISWIN], /* T <= 0.1 s <= the window: at most 1 */
         .nis_max = v[P_NISMAX],
         .v_max = v[P_VMAX],
         .v_max2 = v[P_VMAX] * v[P_VMAX],
-        .w_min = V_MIN / v[P_RW],
+        .w_min = v[P_VMIN] / v[P_RW],
         .n = n,
         .iterations = (uint8_t)v[P_ITER],
         .form = v[P_FORM] >= 0.5f,

@@ -21,11 +21,12 @@ block is decoupled from the wheels exactly (∂F_x/∂v_lat = ∂F_y/∂ω = 0 a
 v_y and r stay zero and the 5-state filter gives the 3-state one's speed.
 
 Health (status DIVERGED): the innovation left after the unknown input takes its
-direction is one χ²(1) value per step; its mean over one second (an exponential
-average) above `nis_max` says the model no longer explains the wheels (the average
-holds while both wheels turn slower than 1 m/s: near standstill the slip model
-means nothing). So do a speed more than 3σ outside [0, v_max], and a speed variance
-above v_max² or a negative variance, after the update or after the prediction.
+direction is one χ²(1) value per step; its mean over `nis_window` (an exponential
+average) above `nis_max` says the model no longer explains the wheels. So do a speed
+more than 3σ outside [0, v_max], and a speed variance above v_max² or a negative
+variance, after the update or after the prediction. While both wheels turn slower than
+`v_min` the slip model means nothing: the average holds, and ILL_CONDITIONED says that
+d̂ (then the wheels' noise times |(C B)⁺|) and v̂ are not determined by the wheels.
 
 The sample time is not in the paper; 10 ms is the usual period of ABS wheel-speed
 signals. `Uikf` is the linear UIKF of eqs. 27-28 on the model linearised once, at
@@ -55,8 +56,6 @@ CAR = tuple(
     p for p in CAR_PARAMS if p.name in ("m", "r_w", "i_w", "k_b", "psi", "h_cg", "l_f", "l_r")
 )
 DRY = SURFACES[0][1:]
-NIS_WINDOW = 1.0  # s: the health check's averaging time
-V_MIN = 1.0  # m/s: below it (both wheels) the NIS average holds
 FULL = {5: [0, 1, 2, 3, 4], 3: [0, 3, 4]}  # the filter's states among the model's five
 
 
@@ -159,10 +158,11 @@ class Uiiekf:
         self.P = np.eye(n) * p["p0"]
         self.d_x = 0.0
         self.nis = 0.0  # the windowed mean of the innovation's χ²(1)
-        self.alpha = min(1.0, self.T / NIS_WINDOW)
+        self.alpha = self.T / p["nis_window"]
         self.c1_norm: list[float] = []
         self.eigenvalues: list[np.ndarray] = []
         self.diverged: list[bool] = []
+        self.standstill: list[bool] = []  # ILL_CONDITIONED: d̂ and v̂ not from the wheels
 
     def xdot(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """ẋ with no brake torque (it is the unknown input) and ∂ẋ/∂x, in the filter's states."""
@@ -208,7 +208,7 @@ class Uiiekf:
         CB = C @ B
         for i in range(passes):
             F_inv = np.linalg.inv(C @ P @ C.T + R)
-            if i == 0 and self.car.r_w * max(z) >= V_MIN:
+            if i == 0 and self.car.r_w * max(z) >= self.p["v_min"]:
                 self.nis += self.alpha * (self._nis(z - C @ x, F_inv, CB) - self.nis)
             K = P @ C.T @ F_inv
             L = K + (identity - K @ C) @ B @ np.linalg.inv(CB.T @ F_inv @ CB) @ CB.T @ F_inv
@@ -216,6 +216,7 @@ class Uiiekf:
             IL = identity - L @ C
             P = IL @ P @ IL.T + L @ R @ L.T
         healthy = self._estimate_ok(x, P)
+        self.standstill.append(self.car.r_w * max(z) < self.p["v_min"])
         d_hat = float((np.linalg.pinv(CB) @ innovation)[0])
         x_next, J = self.predict(x)
         self.c1_norm.append(float(np.linalg.norm(IL @ B)))
@@ -270,6 +271,16 @@ SPEC = register(
             *CAR,
             Param("v_max", "m/s", q=0, default=100.0, lo=1.0, hi=200.0, doc="highest speed"),
             Param("nis_max", "1", q=0, default=5.0, lo=1.0, hi=1e6, doc="NIS mean that flags"),
+            Param(
+                "v_min",
+                "m/s",
+                q=0,
+                default=1.0,
+                lo=0.0,
+                hi=10.0,
+                doc="both wheels slower: standstill (NIS held, ILL_CONDITIONED)",
+            ),
+            Param("nis_window", "s", q=0, default=1.0, lo=0.1, hi=100.0, doc="NIS averaging time"),
         ),
         modes=("F32",),
         paper="000-manf-uiiekf-braking",
