@@ -70,7 +70,8 @@ def test_flash_through_the_bootloader_then_the_flashed_firmware_runs_a_scenario(
 ) -> None:
     result, flash_bin, seen = flashed_once
     assert result.bytes > 40_000
-    assert 0 < result.write_s < 10 and 0 < result.verify_s < 10
+    # avrdude's own timings are reported (their size is a benchmark's business: the host is shared)
+    assert result.write_s > 0 and result.verify_s > 0
     assert seen["info"].f_cpu == 16_000_000
     assert "passthrough" in [e.name for e in seen["info"].estimators]
     # The flash outlives the bridge: a new one starts from it and runs 1,000 samples.
