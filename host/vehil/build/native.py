@@ -1,7 +1,8 @@
 """The native board: firmware/lib and firmware/native compiled into a host shared library.
 
 The C flags are platformio.ini's [vehil] c_flags, the ones the AVR image is built
-with, so the same sources see the same warnings and the same language.
+with, so the same sources see the same warnings and the same language, and two more
+that refuse arithmetic in `double` (CHIP_TWIN_FLAGS).
 """
 
 from __future__ import annotations
@@ -19,10 +20,18 @@ from vehil.paths import NATIVE_LIB, PROJECT_ROOT
 _SOURCE_DIRS = (PROJECT_ROOT / "firmware" / "lib", PROJECT_ROOT / "firmware" / "native")
 
 
+# `double` is 32 bits on avr-gcc and 64 natively: C that computes in double would make the
+# native board compute in float64 and stop being the chip's twin. These catch it (a float
+# promoted to double, a double stored back into a float). Native only: avr-libc's math
+# functions return double (expf is exp), so on the AVR they flag every call.
+CHIP_TWIN_FLAGS = ("-Wdouble-promotion", "-Wfloat-conversion")
+
+
 def c_flags() -> list[str]:
+    """platformio.ini's [vehil] c_flags and the flags that keep native code float32."""
     ini = configparser.ConfigParser(interpolation=None, inline_comment_prefixes=(";",))
     ini.read(PROJECT_ROOT / "platformio.ini")
-    return shlex.split(ini["vehil"]["c_flags"])
+    return [*shlex.split(ini["vehil"]["c_flags"]), *CHIP_TWIN_FLAGS]
 
 
 def build_native(*, verbose: bool = False) -> Path:
