@@ -8,7 +8,8 @@
 
 enum {
     P_T, P_N, P_ITER, P_FORM, P_C1, P_C2, P_C3, P_P0, P_QV, P_QLAT, P_QW, P_R,
-    P_M, P_RW, P_IW, P_KB, P_PSI, P_HCG, P_LF, P_LR, P_VMAX, P_NISMAX, P_VMIN, P_NISWIN, N_PARAMS
+    P_M, P_RW, P_IW, P_KB, P_PSI, P_HCG, P_LF, P_LR, P_VMAX, P_NISMAX, P_VMIN, P_NISWIN,
+    P_IZ, P_RHO, P_CD, P_AF, P_HA, N_PARAMS
 };
 
 static const ROM param_range_t ranges[N_PARAMS] = {
@@ -18,12 +19,11 @@ static const ROM param_range_t ranges[N_PARAMS] = {
     {100.0f, 5000.0f, 0}, {0.1f, 1.0f, 0},   {0.05f, 50.0f, 0}, {0.0f, 1.0f, 0},
     {0.1f, 1.5f, 0},      {0.1f, 2.0f, 0},   {0.3f, 4.0f, 0},   {0.3f, 4.0f, 0},
     {1.0f, 200.0f, 0},    {1.0f, 1e6f, 0},   {0.0f, 10.0f, 0},  {0.1f, 100.0f, 0},
+    {50.0f, 20000.0f, 0}, {0.5f, 1.5f, 0},   {0.0f, 2.0f, 0},   {0.5f, 10.0f, 0},
+    {0.0f, 3.0f, 0},
 };
 
-/* Table 2's values the filter does not take as parameters (yaw inertia, drag), gravity. */
-#define I_Z 1627.0f
-#define DRAG_MOMENT (0.5f * 1.027f * 0.32f * 1.87f * 1.16f) /* ½ ρ C_d A_f H_a */
-#define GRAVITY 9.81f
+#define GRAVITY 9.81f /* m/s², as the reference's (vehil/braking_car.py) */
 
 /* One wheel's braking-positive forces and their partials by (v, v_lat, ω). The filter
  * assumes δ = 0, and at v_lat = 0 the lateral block decouples from the wheels exactly
@@ -314,14 +314,14 @@ static uint8_t uiiekf_configure(void *state, uint8_t mode, const uint8_t *params
         .r_meas = v[P_R],
         .r_w = v[P_RW],
         .two_inv_m = 2.0f / v[P_M],
-        .two_inv_i_z = 2.0f / I_Z,
+        .two_inv_i_z = 2.0f / v[P_IZ],
         .r_w_inv_i_w = v[P_RW] / v[P_IW],
         .l_f = v[P_LF],
         .l_r = v[P_LR],
         .load_f = weight * v[P_LR] * inv_L2,
         .load_r = weight * v[P_LF] * inv_L2,
         .transfer = v[P_M] * v[P_HCG] * inv_L2,
-        .drag = DRAG_MOMENT * inv_L2,
+        .drag = 0.5f * v[P_RHO] * v[P_CD] * v[P_AF] * v[P_HA] * inv_L2, /* ½ ρ C_d A_f H_a */
         .psi_c1 = psi * c1,
         .c2 = c2,
         .psi_c3 = psi * c3,

@@ -50,11 +50,12 @@ from vehil.estimators.base import EstimatorSpec, Param, Signal
 from vehil.estimators.manf import WHEEL_SPEEDS
 
 STATE_NAMES = {5: ("v_x", "v_y", "r", "omega_f", "omega_r"), 3: ("v_x", "omega_f", "omega_r")}
-# The car's values the filter takes; the yaw inertia and the drag terms stay Table 2's
-# (the board keeps its parameter tables in RAM: docs/estimators/uiiekf.md).
+# The car's values the filter takes: all of Table 2's (m ... l_r, then the yaw inertia and
+# the drag terms, appended so the wire order of the first keeps).
 CAR = tuple(
     p for p in CAR_PARAMS if p.name in ("m", "r_w", "i_w", "k_b", "psi", "h_cg", "l_f", "l_r")
 )
+CAR_MORE = tuple(p for p in CAR_PARAMS if p.name in ("i_z", "rho", "c_d", "a_f", "h_a"))
 DRY = SURFACES[0][1:]
 FULL = {5: [0, 1, 2, 3, 4], 3: [0, 3, 4]}  # the filter's states among the model's five
 
@@ -281,6 +282,7 @@ SPEC = register(
                 doc="both wheels slower: standstill (NIS held, ILL_CONDITIONED)",
             ),
             Param("nis_window", "s", q=0, default=1.0, lo=0.1, hi=100.0, doc="NIS averaging time"),
+            *CAR_MORE,
         ),
         modes=("F32",),
         paper="000-manf-uiiekf-braking",
