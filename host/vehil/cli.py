@@ -588,6 +588,16 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     return 0
 
 
+def _sizes(text: str) -> list[int]:
+    """SIZE or SIZE,SIZE,...: payload sizes in bytes."""
+    try:
+        return [int(x) for x in text.split(",")]
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"{text!r}: give payload sizes in bytes, e.g. 16 or 0,16,64"
+        ) from None
+
+
 def cmd_profile(args: argparse.Namespace) -> int:
     if args.functions:
         from vehil.fnprofile.command import profile_functions
@@ -885,7 +895,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         default=None,
         help="with --functions: samples in flight (1: stop-and-wait)",
     )
-    p.add_argument("--ping", type=int, default=None, help="with --functions: PINGs of SIZE bytes")
+    p.add_argument(
+        "--ping",
+        type=_sizes,
+        default=None,
+        help="with --functions: PINGs of SIZE bytes (SIZE,SIZE...: one profile each; with "
+        "--per exchange, a table of each exchange's cycles by part)",
+    )
     p.add_argument(
         "--per",
         choices=("step", "frame", "exchange", "run"),

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from vehil import scenario
-from vehil.fnprofile import collect
+from vehil.fnprofile import collect, tables
 
 pytestmark = pytest.mark.hil
 
@@ -115,3 +115,22 @@ def test_vehil_run_profile_puts_the_flame_graph_in_the_report(tmp_path) -> None:
         assert (folder / name).stat().st_size > 0
     assert "![flame graph](profile/flame.png)" in (tmp_path / "report.md").read_text()
     assert "passthrough_step" in (folder / "profile.md").read_text()
+
+
+def test_an_exchange_by_part_grows_with_its_bytes(tmp_path) -> None:  # noqa: ANN001
+    """Each payload byte goes both ways: through the CRC twice (21 cycles each), once
+    through each UART interrupt (44 received, 36 sent, as simavr counts them: it does
+    not charge the chip's 5-cycle interrupt response)."""
+    parts = {
+        size: tables.exchange_parts(
+            collect.pings(size=size, count=20, what="exchange", folder=tmp_path / f"p{size}")
+        )
+        for size in (16, 64)
+    }
+    slope = {k: (parts[64][k] - parts[16][k]) / 48 for k in parts[16]}
+    assert slope["CRC-32C"] == pytest.approx(42, abs=0.5)
+    assert slope["RX interrupts"] == pytest.approx(44, abs=0.5)
+    assert slope["TX interrupts"] == pytest.approx(36, abs=0.5)
+    assert sum(parts[16][k] for k in tables.EXCHANGE_PARTS[:-1]) == pytest.approx(
+        parts[16]["not waiting"]
+    )

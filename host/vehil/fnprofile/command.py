@@ -64,21 +64,29 @@ def profile_functions(args: argparse.Namespace, console: Console) -> int:
         per = args.per or "frame"
         if per not in ("frame", "exchange"):
             raise VehilError(f"--ping profiles per frame or per exchange, not per {per}")
-        folder = Path(args.out or f"runs/profile-functions-ping{args.ping}-{per}-{board}")
-        profile = collect.pings(
-            board,
-            size=args.ping,
-            count=args.count,
-            what=per,
-            folder=folder / "bridge",
-            timeout_s=args.timeout,
-        )
-        title = f"{args.ping}-byte PING on {board}: " + (
-            "the frame path (end_of_frame)"
-            if per == "frame"
-            else f"the whole firmware per exchange, {args.count} exchanges"
-        )
-        _figures(args, profile, show(console, profile, title, folder))
+        parts: dict[int, dict[str, float]] = {}
+        for size in args.ping:
+            folder = Path(args.out or f"runs/profile-functions-ping{size}-{per}-{board}")
+            if args.out and len(args.ping) > 1:
+                folder = folder / f"ping{size}"
+            profile = collect.pings(
+                board,
+                size=size,
+                count=args.count,
+                what=per,
+                folder=folder / "bridge",
+                timeout_s=args.timeout,
+            )
+            title = f"{size}-byte PING on {board}: " + (
+                "the frame path (end_of_frame)"
+                if per == "frame"
+                else f"the whole firmware per exchange, {args.count} exchanges"
+            )
+            _figures(args, profile, show(console, profile, title, folder))
+            if per == "exchange":
+                parts[size] = tables.exchange_parts(profile)
+        if parts:
+            console.print(tables.parts_table(parts, board))
         return 0
     if not args.scenario:
         raise VehilError("--functions needs a SCENARIO (or --ping SIZE for the link's frame path)")

@@ -3,11 +3,16 @@ windows' totals, for the terminal (rich) and for Markdown reports."""
 
 from __future__ import annotations
 
+from functools import cache
+from pathlib import Path
+
 import numpy as np
 from rich.markup import escape
 from rich.table import Table
 
+from vehil.fnprofile.elfmap import Line
 from vehil.fnprofile.model import Profile
+from vehil.paths import PROJECT_ROOT
 
 
 def _mmm(x: np.ndarray, per: int) -> tuple[str, str, str]:
@@ -182,3 +187,58 @@ def figures(profile: Profile, files: dict | None = None) -> dict:
         ],
         "files": {k: str(v) for k, v in (files or {}).items()},
     }
+
+
+# The link's parts, by the code that does them: the CRC's lines (the assembly loops'
+# CRC32C_BYTE, proto/crc32c.h's inline update), the loops of firmware/src/frame_avr.S
+# less their CRC (copying a request's bytes, COBS-encoding a reply into the TX ring).
+_CRC_MACRO = "CRC32C_BYTE"
+_CRC_HEADER = "firmware/lib/proto/crc32c.h"
+_FRAME_LOOPS = ("frame_rx_run", "frame_tx_run")
+EXCHANGE_PARTS = (
+    "RX interrupts",
+    "TX interrupts",
+    "CRC-32C",
+    "COBS and copying",
+    "fetch, dispatch, handler, the rest",
+    "not waiting",
+)
+
+
+@cache
+def _source(path: Path) -> tuple[str, ...]:
+    return tuple(path.read_text().splitlines()) if path.exists() else ()
+
+
+def _is_crc(line: Line | None) -> bool:
+    if line is None or line.file == _CRC_HEADER:
+        return line is not None
+    text = _source(PROJECT_ROOT / line.file) if line.file.endswith(".S") else ()
+    return 0 < line.line <= len(text) and text[line.line - 1].strip() == _CRC_MACRO
+
+
+def exchange_parts(profile: Profile) -> dict[str, float]:
+    """Cycles per exchange by part, from a `--ping SIZE --per exchange` profile."""
+    per = profile.windows * profile.per
+    irq = profile.interrupts()
+    rx = float(irq.get("interrupt USART0_RX", np.zeros(1)).sum()) / per
+    tx = float(irq.get("interrupt USART0_UDRE", np.zeros(1)).sum()) / per
+    crc_lines = [ln for ln in profile.hot_lines(len(profile.pc_cycles)) if _is_crc(ln.line)]
+    crc = sum(ln.cycles for ln in crc_lines) / per
+    crc_in_loops = sum(ln.cycles for ln in crc_lines if ln.function in _FRAME_LOOPS) / per
+    loops = sum(float(s.self.sum()) for s in profile.function_stats() if s.name in _FRAME_LOOPS)
+    cobs = loops / per - crc_in_loops
+    idle = profile.function(profile.idle) if profile.idle else None
+    busy = float((profile.window_cycles - (idle.self if idle else 0)).sum()) / per
+    values = (rx, tx, crc, cobs, busy - rx - tx - crc - cobs, busy)
+    return dict(zip(EXCHANGE_PARTS, values, strict=True))
+
+
+def parts_table(parts: dict[int, dict[str, float]], board: str) -> Table:
+    t = Table(title=f"one PING exchange by part on {board}, stop-and-wait (cycles per exchange)")
+    t.add_column("part")
+    for size in parts:
+        t.add_column(f"{size} B", justify="right")
+    for name in EXCHANGE_PARTS:
+        t.add_row(name, *(f"{p[name]:,.0f}" for p in parts.values()))
+    return t
