@@ -9,6 +9,8 @@
 
 enum { P_T, P_RW, P_WHEEL, P_GAMMA, P_XI, P_RG0, P_A, P_SIGN, P_READING, N_PARAMS };
 
+#define ONE_Q30 (INT32_C(1) << 30)
+
 static const ROM param_range_t ranges[N_PARAMS] = {
     {1e-4f, 0.1f, 30},  {0.1f, 1.0f, 24}, {0.0f, 2.0f, 0}, {1.0f, 1.9f, 30}, {0.0f, 1.0f, 30},
     {0.0f, 100.0f, 24}, {0.1f, 100.0f, 24}, {0.0f, 1.0f, 0}, {0.0f, 1.0f, 0},
@@ -99,20 +101,24 @@ static uint8_t step_q(manf_state_t *st, const uint8_t *in, uint8_t *out)
         int32_t e = fx_sub(s->v, v_w, &status); /* Q24 */
         uint8_t grow;
         st->s_prev = adapt_sign(st->s_prev, e < 0 ? -1 : (int8_t)(e != 0), &grow);
+        /* R_g γ = R_g + R_g (γ - 1), R_g ξ = R_g - R_g (1 - ξ): R_g >= 0 always (R_g(0), γ
+         * and ξ are), below 2^31 and R_g γ below 2^32, clamped to a next */
+        uint32_t rg = (uint32_t)s->rg;
         if (grow == 2u) {
-            s->rg = fx_mul(s->rg, 24, p->gamma, 30, 24, &status);
+            rg += fx_umul_f(rg, p->gamma_m1);
         } else if (grow == 1u) {
-            s->rg = fx_mul(s->rg, 24, p->xi, 30, 24, &status);
+            rg = p->xi_zero ? 0u : rg - fx_umul_f(rg, p->one_m_xi);
         }
-        if ((uint32_t)s->rg > (uint32_t)p->a) { /* R_g >= 0 always: R_g(0), γ and ξ are */
-            s->rg = p->a;
+        if (rg > (uint32_t)p->a) {
+            rg = (uint32_t)p->a;
         }
+        s->rg = (int32_t)rg;
         /* The step's magnitude R_g |tanh e| (T), Q24, then its sign: R_g >= 0 and the
          * product is below a <= 100, so it cannot saturate, and one compare clamps it. */
         uint32_t mag_e = e < 0 ? (uint32_t)0 - (uint32_t)e : (uint32_t)e;
-        uint32_t step = fx_umul16_q15((uint32_t)s->rg, fx_tanh_abs_q15(mag_e, 24));
+        uint32_t step = fx_umul16_q15(rg, fx_tanh_abs_q15(mag_e, 24));
         if (!st->reading) {
-            step = (uint32_t)fx_mul((int32_t)step, 24, p->T, 30, 24, &status);
+            step = fx_umul_f(step, p->T);
         }
         if (step > (uint32_t)p->limit) {
             step = (uint32_t)p->limit;
@@ -161,16 +167,16 @@ static uint8_t manf_configure(void *state, uint8_t mode, const uint8_t *params)
         };
         st->u.f32.p.limit = st->u.f32.p.a * st->u.f32.p.T;
     } else {
-        st->u.q.p = (manf_params_q_t){
-            .T = param_q(params, P_T),
-            .r_w = param_q(params, P_RW),
-            .gamma = param_q(params, P_GAMMA),
-            .xi = param_q(params, P_XI),
-            .rg0 = param_q(params, P_RG0),
-            .a = param_q(params, P_A),
-        };
-        uint8_t sat = 0;
-        st->u.q.p.limit = fx_mul(st->u.q.p.a, 24, st->u.q.p.T, 30, 24, &sat); /* eq. 43 */
+        manf_params_q_t *p = &st->u.q.p;
+        int32_t xi = param_q(params, P_XI);
+        p->T = fx_ufactor((uint32_t)param_q(params, P_T), 30);
+        p->gamma_m1 = fx_ufactor((uint32_t)(param_q(params, P_GAMMA) - ONE_Q30), 30);
+        p->one_m_xi = fx_ufactor((uint32_t)(ONE_Q30 - xi), 30);
+        p->xi_zero = xi == 0;
+        p->r_w = param_q(params, P_RW);
+        p->rg0 = param_q(params, P_RG0);
+        p->a = param_q(params, P_A);
+        p->limit = (int32_t)fx_umul_f((uint32_t)p->a, p->T); /* eq. 43 */
     }
     manf_reset(st);
     return 0;

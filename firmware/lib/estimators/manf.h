@@ -12,6 +12,7 @@
 #include <stdint.h>
 
 #include "estimators/estimator.h"
+#include "fixmath/fixmath.h"
 
 #define MANF_ID 20u
 
@@ -25,10 +26,11 @@ typedef struct {
 } manf_f32_t;
 
 typedef struct {
-    int32_t T;      /* Q30 */
+    /* T, γ - 1 and 1 - ξ to 16 bits (fx_ufactor: relative error <= 2^-16), see
+     * docs/estimators/manf.md */
+    fx_ufactor_t T, gamma_m1, one_m_xi;
+    uint8_t xi_zero; /* ξ = 0: a flip zeroes R_g */
     int32_t r_w;    /* Q24 */
-    int32_t gamma;  /* Q30 */
-    int32_t xi;     /* Q30 */
     int32_t rg0;    /* Q24 */
     int32_t a;      /* Q24 */
     int32_t limit;  /* a T, Q24: the largest step of v̂ (eq. 43) */

@@ -81,6 +81,37 @@ int32_t fx_dot16_c(const int16_t *a, const int16_t *b, uint8_t n)
     return (int32_t)acc;
 }
 
+fx_ufactor_t fx_ufactor(uint32_t x, uint8_t q)
+{
+    if (x == 0u) {
+        return (fx_ufactor_t){.m = 0, .sh = 16};
+    }
+    uint8_t top = 31; /* x's leading bit */
+    while (!(x >> top)) {
+        top--;
+    }
+    if (top <= 15u) {
+        return (fx_ufactor_t){.m = (uint16_t)(x << (15u - top)), .sh = (uint8_t)(q + 15u - top)};
+    }
+    uint8_t d = (uint8_t)(top - 15u);
+    uint32_t m = (x + ((uint32_t)1 << (d - 1u))) >> d; /* rounded half up */
+    uint8_t sh = (uint8_t)(q + 15u - top);
+    if (m == 0x10000u) { /* rounded up to the next power of two */
+        m = 0x8000u;
+        sh--;
+    }
+    if (sh < 16u) { /* x within 2^-17 of 1: the largest mantissa */
+        return (fx_ufactor_t){.m = 0xffffu, .sh = 16};
+    }
+    return (fx_ufactor_t){.m = (uint16_t)m, .sh = sh};
+}
+
+/* fx_umul_f out of line, for the native tests. */
+uint32_t fx_umul_f_c(uint32_t a, uint16_t m, uint8_t sh)
+{
+    return fx_umul_f(a, (fx_ufactor_t){.m = m, .sh = sh});
+}
+
 int32_t fx_mul_shr_c(int32_t a, int32_t b, uint8_t s, uint8_t *status)
 {
     return fx_sat(((int64_t)a * b + ((int64_t)1 << (s - 1u))) >> s, status);

@@ -244,6 +244,34 @@ int32_t fx_dot16x32_q15(const int16_t *l, const int32_t *y, uint8_t n, uint8_t s
 #define fx_dot16x32_q15 fx_dot16x32_q15_c
 #endif
 
+/* A constant factor 0 <= x < 1 kept as a 16-bit mantissa and a shift, x ~ m 2^-sh with m in
+ * [2^15, 2^16) (relative error <= 2^-16) and 16 <= sh <= 47; x = 0 gives m = 0. For
+ * products in a hot path that need the constant to 16 bits only (each use says why):
+ * fx_umul_f costs two unsigned 16 x 16 hardware products and a shift, where an int32
+ * multiply costs ~150 cycles. fx_ufactor (configure time) takes x in Q q (q <= 31). */
+typedef struct {
+    uint16_t m;
+    uint8_t sh;
+} fx_ufactor_t;
+
+fx_ufactor_t fx_ufactor(uint32_t x, uint8_t q);
+
+/* a m 2^-sh rounded half up, for a < 2^31 (the result is then below 2^31 too). On the AVR
+ * an assembly kernel (fx_umul_f_avr.S: eight hardware products and the shift, ~60-90
+ * cycles by sh); the C twin below gives the same bits on the host. */
+#if defined(__AVR__)
+uint32_t fx_umul_f_avr(uint32_t a, uint16_t m, uint8_t sh);
+FX_INLINE uint32_t fx_umul_f(uint32_t a, fx_ufactor_t f) { return fx_umul_f_avr(a, f.m, f.sh); }
+#else
+FX_INLINE uint32_t fx_umul_f(uint32_t a, fx_ufactor_t f)
+{
+    uint64_t p = (uint64_t)a * f.m;
+    return (uint32_t)((p + ((uint64_t)1 << (f.sh - 1u))) >> f.sh);
+}
+#endif
+
+uint32_t fx_umul_f_c(uint32_t a, uint16_t m, uint8_t sh);
+
 /* a (qa) * b (qb) -> q_out, ties away from zero; qa + qb <= q_out (no fraction bit to
  * drop) or a shift past 62 goes through int64 (fx_mul_wide). */
 int32_t fx_mul_wide(int32_t a, uint8_t qa, int32_t b, uint8_t qb, uint8_t q_out, uint8_t *status);
