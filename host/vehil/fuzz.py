@@ -19,6 +19,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from vehil import estimators
+from vehil.build import registry
 from vehil.build.native import c_flags
 from vehil.errors import BuildError
 from vehil.paths import BUILD_DIR, PROJECT_ROOT
@@ -58,7 +59,8 @@ def build() -> Path:
         cc,
         *flags,
         "-g",
-        "-DVEHIL_EV_FILTERS",  # as the native build: every estimator
+        "-I",  # as the native build: every estimator
+        str(registry.write(FUZZ_DIR / "gen", registry.select("all")).parent),
         "-fsanitize=fuzzer,address,undefined",
         "-fno-sanitize-recover=all",
         "-I",

@@ -1,57 +1,19 @@
-/* The estimators built into this image. Adding one: include its header, add
- * its state to the union and its descriptor to the table.
- * VEHIL_EV_FILTERS adds seed 001's 7-state EKF and UKF: the native build and the AVR
- * env `offline-ev` have them; the default AVR image leaves them out, as neither keeps
- * a 10 ms step (README, "What runs on the board"). Its reduced EKF does, with linear
- * tires and a fixed R. */
+/* The registry of the estimators built into this image. Which ones is the build's
+ * choice (platformio.ini's custom_estimators; the native build and the fuzzer take them
+ * all): it writes registry_gen.h with their headers, their states for the union and
+ * their descriptors (host/vehil/build/registry.py). Adding an estimator edits no file
+ * here. The default AVR image leaves out seed 001's 7-state EKF and UKF, as neither
+ * keeps a 10 ms step (README, "What runs on the board"); env `offline-ev` has them. */
 #include <stddef.h>
 
-#include "estimators/acc_kf.h"
-#include "estimators/eso.h"
 #include "estimators/estimator.h"
-#ifdef VEHIL_EV_FILTERS
-#include "estimators/ev_ekf.h"
-#include "estimators/ev_ukf.h"
-#endif
-#include "estimators/ev_ekf3.h"
-#include "estimators/kfui.h"
-#include "estimators/manf.h"
-#include "estimators/passthrough.h"
-#include "estimators/rls.h"
-#include "estimators/stlqf.h"
-#include "estimators/uiiekf.h"
+#include "registry_gen.h"
 
 static union {
-    passthrough_state_t passthrough;
-    acc_kf_state_t acc_kf;
-    manf_state_t manf;
-    uiiekf_state_t uiiekf;
-    eso_state_t eso;
-    kfui_state_t kfui;
-    stlqf_state_t stlqf;
-    rls_state_t rls;
-    ev_ekf3_state_t ev_ekf3;
-#ifdef VEHIL_EV_FILTERS
-    ev_ekf_state_t ev_ekf;
-    ev_ukf_state_t ev_ukf;
-#endif
+    VEHIL_REGISTRY_STATES
 } state;
 
-static const ROM estimator_t *const ROM registry[] = {
-    &passthrough_estimator,
-    &acc_kf_estimator,
-    &manf_estimator,
-    &uiiekf_estimator,
-    &eso_estimator,
-    &kfui_estimator,
-    &stlqf_estimator,
-    &rls_estimator,
-    &ev_ekf3_estimator,
-#ifdef VEHIL_EV_FILTERS
-    &ev_ekf_estimator,
-    &ev_ukf_estimator,
-#endif
-};
+static const ROM estimator_t *const ROM registry[] = {VEHIL_REGISTRY_ENTRIES};
 
 uint8_t estimator_count(void) { return (uint8_t)(sizeof registry / sizeof registry[0]); }
 

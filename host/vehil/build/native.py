@@ -13,6 +13,7 @@ import shlex
 import subprocess
 from pathlib import Path
 
+from vehil.build import registry
 from vehil.build.build_id import build_id_defines
 from vehil.errors import BuildError
 from vehil.paths import NATIVE_LIB, PROJECT_ROOT
@@ -37,7 +38,9 @@ def c_flags() -> list[str]:
 def build_native(*, verbose: bool = False) -> Path:
     sources = sorted(p for d in _SOURCE_DIRS for p in d.rglob("*.c"))
     inputs = sources + [p for d in _SOURCE_DIRS for p in d.rglob("*.h")]
-    inputs.append(PROJECT_ROOT / "platformio.ini")
+    registry_h = registry.write(NATIVE_LIB.parent / "gen", registry.select("all"))
+    gen = registry_h.parent
+    inputs += [PROJECT_ROOT / "platformio.ini", registry_h]
     if NATIVE_LIB.exists() and all(p.stat().st_mtime <= NATIVE_LIB.stat().st_mtime for p in inputs):
         return NATIVE_LIB
     NATIVE_LIB.parent.mkdir(parents=True, exist_ok=True)
@@ -46,7 +49,8 @@ def build_native(*, verbose: bool = False) -> Path:
         os.environ.get("CC", "cc"),
         *c_flags(),
         *defines,
-        "-DVEHIL_EV_FILTERS",  # every estimator, those left out of the AVR image too
+        "-I",  # registry_gen.h: every estimator, those left out of the AVR image too
+        str(gen),
         "-fPIC",
         "-shared",
         *(arg for d in _SOURCE_DIRS for arg in ("-I", str(d))),
