@@ -8,7 +8,7 @@ import json
 import signal
 import sys
 import threading
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -490,31 +490,45 @@ def cmd_scenarios(args: argparse.Namespace) -> int:
 def cmd_estimators(args: argparse.Namespace) -> int:
     from vehil import catalog, estimators
 
-    if args.name:
-        spec = _known(estimators.estimators(), args.name, "estimator")
-        _show_all(args, catalog.estimator_tables(spec), catalog.estimator_data(spec))
-    else:
-        specs = estimators.estimators().values()
-        _show(args, catalog.estimators_table(specs), [catalog.estimator_data(s) for s in specs])
-    return 0
+    return _catalog(
+        args,
+        estimators.estimators(),
+        "estimator",
+        catalog.estimators_table,
+        catalog.estimator_tables,
+        catalog.estimator_data,
+    )
 
 
 def cmd_plants(args: argparse.Namespace) -> int:
     from vehil import catalog, plants
 
-    if args.name:
-        plant = _known(plants.plants(), args.name, "plant")
-        _show_all(args, catalog.plant_tables(plant), catalog.plant_data(plant))
+    return _catalog(
+        args,
+        plants.plants(),
+        "plant",
+        catalog.plants_table,
+        catalog.plant_tables,
+        catalog.plant_data,
+    )
+
+
+def _catalog(
+    args: argparse.Namespace,
+    items: dict[str, Any],
+    what: str,
+    table: Callable[[Iterable[Any]], Table],
+    tables: Callable[[Any], list[Table]],
+    data: Callable[[Any], dict[str, Any]],
+) -> int:
+    """Every item in one table, or with a name, that one in full."""
+    if not args.name:
+        _show(args, table(items.values()), [data(i) for i in items.values()])
+    elif args.name not in items:
+        raise VehilError(f"no {what} {args.name!r}; known: {', '.join(sorted(items))}")
     else:
-        known = plants.plants().values()
-        _show(args, catalog.plants_table(known), [catalog.plant_data(p) for p in known])
+        _show_all(args, tables(items[args.name]), data(items[args.name]))
     return 0
-
-
-def _known(items: dict[str, Any], name: str, what: str) -> Any:
-    if name not in items:
-        raise VehilError(f"no {what} {name!r}; known: {', '.join(sorted(items))}")
-    return items[name]
 
 
 def _show_all(args: argparse.Namespace, tables: Sequence[Table], data: Any) -> None:
