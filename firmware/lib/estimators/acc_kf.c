@@ -131,30 +131,12 @@ static int32_t quotient(int32_t x, fx_recip_t r, int8_t d, uint8_t *status)
 {
     if (d >= 0) {
         uint8_t u = (uint8_t)d;
-        int32_t lim = FX_MAX; /* FX_MAX >> u, whole bytes first (the AVR loops bit by bit) */
-        if (u > 30u) {
-            lim = 0;
-        } else {
-            if (u & 16u) {
-                lim >>= 16;
-            }
-            if (u & 8u) {
-                lim >>= 8;
-            }
-            lim >>= (u & 7u);
-        }
+        int32_t lim = u > 30u ? 0 : (int32_t)fx_shr32((uint32_t)FX_MAX, u);
         if (x > lim || x < -lim - 1) {
             *status |= STATUS_SATURATED;
             return x < 0 ? FX_MIN : FX_MAX;
         }
-        uint32_t ux = (uint32_t)x;
-        if (u & 16u) {
-            ux <<= 16;
-        }
-        if (u & 8u) {
-            ux <<= 8;
-        }
-        x = (int32_t)(ux << (u & 7u));
+        x = (int32_t)fx_shl32((uint32_t)x, u);
     } else {
         uint8_t k = (uint8_t)(-d - 1); /* (x + 2^k) >> (k + 1) as ((x >> k) + 1) >> 1 */
         if (k > 30u) {

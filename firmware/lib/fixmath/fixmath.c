@@ -179,29 +179,6 @@ static int8_t normalize30(uint32_t *v)
     return n;
 }
 
-/* x >> n and x << n for a run-time n < 32, whole bytes first. */
-static uint32_t shr32(uint32_t x, uint8_t n)
-{
-    if (n & 16u) {
-        x >>= 16;
-    }
-    if (n & 8u) {
-        x >>= 8;
-    }
-    return x >> (n & 7u);
-}
-
-static uint32_t shl32(uint32_t x, uint8_t n)
-{
-    if (n & 16u) {
-        x <<= 16;
-    }
-    if (n & 8u) {
-        x <<= 8;
-    }
-    return x << (n & 7u);
-}
-
 fx_recip_t fx_recip(int32_t b)
 {
     uint32_t x = (uint32_t)b; /* x 2^-31 in [1/2, 1) once normalised */
@@ -231,18 +208,18 @@ int32_t fx_div_by(int32_t a, uint8_t qa, fx_recip_t r, uint8_t qb, uint8_t q_out
     uint32_t q = (uint32_t)fx_mul_rs((int32_t)m, r.y, 31, status);
     int16_t sh = (int16_t)((int16_t)r.n - k - 29 + qb - qa + q_out);
     if (sh >= 0) {
-        if (sh > 30 || q > shr32((uint32_t)FX_MAX, (uint8_t)sh)) {
+        if (sh > 30 || q > fx_shr32((uint32_t)FX_MAX, (uint8_t)sh)) {
             *status |= STATUS_SATURATED;
             return a < 0 ? FX_MIN : FX_MAX;
         }
-        q = shl32(q, (uint8_t)sh);
+        q = fx_shl32(q, (uint8_t)sh);
     } else {
         uint8_t down = (uint8_t)-sh;
         if (down > 31u) {
             return 0;
         }
         /* (q + 2^(down-1)) >> down, q <= 2^30, as ((q >> (down-1)) + 1) >> 1 */
-        q = (shr32(q, (uint8_t)(down - 1u)) + 1u) >> 1;
+        q = (fx_shr32(q, (uint8_t)(down - 1u)) + 1u) >> 1;
     }
     return a < 0 ? -(int32_t)q : (int32_t)q;
 }

@@ -19,6 +19,30 @@
  * is folded where it is used (GCC would otherwise keep one out-of-line copy). */
 #define FX_INLINE static inline __attribute__((always_inline))
 
+/* x >> n and x << n for a run-time n < 32, whole bytes first (the AVR shifts an int32 one
+ * bit at a time, in a loop). */
+FX_INLINE uint32_t fx_shr32(uint32_t x, uint8_t n)
+{
+    if (n & 16u) {
+        x >>= 16;
+    }
+    if (n & 8u) {
+        x >>= 8;
+    }
+    return x >> (n & 7u);
+}
+
+FX_INLINE uint32_t fx_shl32(uint32_t x, uint8_t n)
+{
+    if (n & 16u) {
+        x <<= 16;
+    }
+    if (n & 8u) {
+        x <<= 8;
+    }
+    return x << (n & 7u);
+}
+
 /* x clamped to int32, flagging saturation. */
 int32_t fx_sat(int64_t x, uint8_t *status);
 
