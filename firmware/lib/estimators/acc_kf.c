@@ -124,9 +124,9 @@ static int32_t lpf_q(const acc_kf_params_q_t *p, acc_kf_q_t *s, int32_t a_m, uin
 
 /* x (qa) / b (qb) -> q_out from b's reciprocal r: x r.y 2^(r.n - 60 + qb - qa + q_out), as
  * x shifted by d = r.n - 34 + qb - qa + q_out and one product with the constant shift 26
- * (~150 cycles where fx_div_by, which first normalises x, costs ~480). A shift that would
- * leave int32 saturates (flagged); a right shift (d < 0: b large) rounds half up and
- * drops x's last -d bits (docs/estimators/acc_kf.md). */
+ * (~300 cycles with the product, where fx_div_by, which first normalises x, costs ~480).
+ * A shift that would leave int32 saturates (flagged); a right shift (d < 0: b large)
+ * rounds half up and drops x's last -d bits (docs/estimators/acc_kf.md). */
 static int32_t quotient(int32_t x, fx_recip_t r, int8_t d, uint8_t *status)
 {
     if (d >= 0) {
