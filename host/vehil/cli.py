@@ -339,6 +339,7 @@ def _finish_run(
 def _forwarded_run_options(args: argparse.Namespace) -> list[str]:
     """The options of `vehil run` that each of several runs gets as given."""
     options = ["--board", args.board, "--timeout", str(args.timeout)]
+    options += ["--acquire-timeout", str(args.acquire_timeout)]
     given = {"--baud": args.baud, "--faults": args.faults, "--window": args.window}
     for flag, value in given.items():
         if value is not None:

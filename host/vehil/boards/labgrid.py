@@ -184,7 +184,7 @@ class LabgridBoard(SerialBoard):
         self.labgrid = labgrid or LabgridOptions()
         self.coordinator_address = env_coordinator or self.labgrid.coordinator
         self.coordinator: Coordinator | None = None
-        self.acquired_here = False  # we acquired it (and so release it)
+        self.acquired_here = False  # we hold it (and so release it)
         self.lost = ""  # what happened to the place while we held it
         self._port: serial.SerialBase | None = None
         self._usage: dict[str, Any] = {}  # this use, for the usage log
@@ -222,15 +222,14 @@ class LabgridBoard(SerialBoard):
         return place
 
     def _acquire(self) -> None:
-        """Acquires the place, waiting in a labgrid reservation while someone else holds
-        it, for `wait_s` at most; a place we hold already is used as it is."""
+        """Acquires the place, waiting in a labgrid reservation while someone holds it, for
+        `wait_s` at most. Held under our own name is held too: by another vehil of ours
+        (`--jobs`), whose board this one must not reset under it."""
         from labgrid.remote.common import ReservationState
         from labgrid.remote.generated import labgrid_coordinator_pb2 as pb2
 
         assert self.coordinator is not None
-        place = self._known_place()
-        if place.acquired == self._me():
-            return  # acquired by hand (labgrid-client acquire): ours to use, not to release
+        self._known_place()
         reply = self.coordinator.stub(
             "CreateReservation",
             pb2.CreateReservationRequest(
@@ -248,6 +247,8 @@ class LabgridBoard(SerialBoard):
                     break
                 if time.monotonic() > deadline:
                     holder = self._known_place().acquired or "a reservation ahead of ours"
+                    if holder == self._me():
+                        holder += " (you: another vehil, or labgrid-client acquire)"
                     raise BoardStartError(
                         f"labgrid place {self.place} is still held by {holder} after "
                         f"{self.labgrid.wait_s:.0f} s of waiting: retry later, wait longer "
@@ -270,10 +271,8 @@ class LabgridBoard(SerialBoard):
 
         if self._held_since is None:
             ended = "not acquired"
-        elif self.lost:
-            ended = f"lost: {self.lost}"
         else:
-            ended = "released" if self.acquired_here else "left acquired (held before)"
+            ended = f"lost: {self.lost}" if self.lost else "released"
         try:
             if self.acquired_here and not self.lost:
                 self.coordinator.stub("ReleasePlace", pb2.ReleasePlaceRequest(placename=self.place))
