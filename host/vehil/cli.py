@@ -670,7 +670,9 @@ def cmd_profile(args: argparse.Namespace) -> int:
                 )
         if not args.no_estimators or args.budgets:
             names = tuple(n for n in (args.estimators or "").split(",") if n)
-            figures["estimators"] = profile.estimator_costs(link, args.board, names=names)
+            figures["estimators"] = profile.estimator_costs(
+                link, args.board, names=names, sizes=args.sizes
+            )
             console.print(profile_report.estimator_table(figures["estimators"], args.board))
             misses = profile.budget_misses(figures["estimators"])
             for line in misses:
@@ -886,6 +888,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--count", type=int, default=200, help="exchanges per point at 1 Mbaud")
     p.add_argument("--no-sweep", action="store_true")
     p.add_argument("--no-estimators", action="store_true")
+    p.add_argument(
+        "--sizes",
+        action="store_true",
+        help="each estimator's flash and RAM: the image built with and without it",
+    )
     p.add_argument(
         "--estimators", default="", help="comma-separated: profile only these estimators"
     )

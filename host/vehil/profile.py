@@ -13,7 +13,6 @@ baud rate altogether. A real Mega adds its 16U2 bridge: up to 4.1 ms per reply.
 from __future__ import annotations
 
 import json
-import subprocess
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -25,7 +24,6 @@ import numpy as np
 from vehil import estimators, scenario
 from vehil.errors import VehilError
 from vehil.link import Link
-from vehil.paths import FIRMWARE_ELF
 from vehil.ping import run_ping
 from vehil.protocol import frame as framing
 
@@ -218,23 +216,22 @@ def _scenario_for(name: str, mode: str) -> scenario.Scenario | None:
     return None
 
 
-def symbol_sizes(prefix: str, elf: Path = FIRMWARE_ELF) -> dict[str, int]:
-    """Flash and RAM of the image's symbols whose names start with `prefix`."""
-    out = subprocess.run(
-        ["avr-nm", "--size-sort", "-S", str(elf)], capture_output=True, text=True, check=True
-    ).stdout
-    flash = ram = 0
-    for line in out.splitlines():
-        parts = line.split()
-        if len(parts) != 4 or not parts[3].startswith(prefix):
-            continue
-        size, kind = int(parts[1], 16), parts[2].lower()
-        if kind in "tr":
-            flash += size
-        elif kind in "db":
-            ram += size
-            flash += size if kind == "d" else 0  # initialised data is stored in flash too
-    return {"flash": flash, "ram": ram}
+def footprint(name: str) -> dict[str, int]:
+    """Flash and static RAM the estimator adds to the image: the default image's set (or
+    all, for one the default leaves out) built with and without it, the difference of the
+    two ELFs. Helpers and tables it alone uses count; what it shares with others, and the
+    state area up to the largest other state, do not."""
+    from vehil.build import registry
+    from vehil.build.budget import budget
+    from vehil.build.platformio import build_image, default_estimators
+
+    chosen = default_estimators()
+    base = chosen if name in registry.select(chosen) else "all"
+    with_it, without = budget(build_image(base)), budget(build_image(f"{base} -{name}"))
+    return {
+        "flash": with_it.flash - without.flash,
+        "ram": with_it.static_ram - without.static_ram,
+    }
 
 
 def frame_bytes(spec: estimators.EstimatorSpec) -> tuple[int, int]:
@@ -256,12 +253,13 @@ def estimator_costs(
     link: Link,
     board: str,
     max_samples: int = 2000,
-    elf: Path = FIRMWARE_ELF,
     names: Sequence[str] = (),
+    sizes: bool = False,
 ) -> list[dict[str, Any]]:
     """Cycles per step of every estimator the board has (or of `names`), in each mode, over
     a scenario, stop-and-wait: no receive interrupt lands in a step, as in a real-time task.
-    Each row has the spec's budget for its mode and whether the median keeps it."""
+    Each row has the spec's budget for its mode and whether the median keeps it, and with
+    `sizes` the flash and RAM the estimator adds to the image (footprint)."""
     from vehil import runner
     from vehil.compare import evaluate, series_from_run
 
@@ -317,7 +315,7 @@ def estimator_costs(
                 within_budget=None
                 if mode not in spec.budget
                 else (fig.cycles["median"] or 0) <= spec.budget[mode],
-                **{f"symbols_{k}": v for k, v in symbol_sizes(f"{name}_", elf).items()},
+                **({f"image_{k}": v for k, v in footprint(name).items()} if sizes else {}),
             )
             rows.append(row)
     return rows

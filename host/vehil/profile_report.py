@@ -164,8 +164,8 @@ def estimator_table(rows: list[dict[str, Any]], board: str) -> Table:
             _budget_cell(r),
             f"{c['max']:,}",
             f"{r['step_us_max']:,.0f}",
-            f"{r['symbols_flash']:,}",
-            f"{r['symbols_ram']:,}",
+            f"{r['image_flash']:,}" if "image_flash" in r else "n/a",
+            f"{r['image_ram']:,}" if "image_ram" in r else "n/a",
             f"{r['paper_hz']:g}",
             f"[{'green' if ok else 'red'}]{rate['stop_and_wait_hz']:,.0f}[/]",
             f"{rate['pipelined_hz']:,.0f}",
@@ -175,8 +175,9 @@ def estimator_table(rows: list[dict[str, Any]], board: str) -> Table:
         "cycles: stop-and-wait, so no receive interrupt lands in a step; budget: the spec's, "
         "against the median (red: missed). "
         "max Hz: 1 / (wire + worst step) stop-and-wait; pipelined: 1 / max(longer frame, step); "
-        "real Mega adds the 16U2's 4.1 ms flush. flash/RAM: the estimator's own symbols "
-        "(its state lives in the shared union)."
+        "real Mega adds the 16U2's 4.1 ms flush. flash/RAM (--sizes): what the "
+        "estimator adds to the image, built with and without it (its state counts where it "
+        "is the largest in the shared union)."
     )
     return t
 

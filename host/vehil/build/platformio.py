@@ -8,6 +8,7 @@ package) into a core dir of our own, with the metadata PlatformIO looks up
 
 from __future__ import annotations
 
+import configparser
 import json
 import os
 import re
@@ -19,7 +20,7 @@ from pathlib import Path
 from platformio.dependencies import get_core_dependencies
 
 from vehil.errors import BuildError
-from vehil.paths import PROJECT_ROOT
+from vehil.paths import BUILD_DIR, PROJECT_ROOT
 
 CORE_DIR = PROJECT_ROOT / ".pio" / "core"
 _TOOL_SCONS_SOURCE = PROJECT_ROOT / "platform" / "tool-scons"
@@ -85,6 +86,40 @@ def check_data_in_low_flash(elf: Path) -> None:
                 )
             return
     raise BuildError(f"{elf}: no .data in `avr-objdump -h` output:\n{out.stdout}{out.stderr}")
+
+
+IMAGES_DIR = BUILD_DIR / "images"
+
+
+def default_estimators() -> str:
+    """platformio.ini's custom_estimators for the default image."""
+    ini = configparser.ConfigParser(interpolation=None, inline_comment_prefixes=(";",))
+    ini.read(PROJECT_ROOT / "platformio.ini")
+    return ini["env"].get("custom_estimators", "all")
+
+
+def build_image(estimators: str, *, verbose: bool = False) -> Path:
+    """The default env's image holding `estimators` (registry.select's words: `all -manf`,
+    `manf acc_kf`), built in its own folder under build/images (incrementally, and
+    leaving the envs' builds alone); returns its ELF."""
+    key = re.sub(r"[^a-z0-9_]+", "-", estimators.lower()).strip("-") or "all"
+    folder = IMAGES_DIR / key
+    folder.mkdir(parents=True, exist_ok=True)
+    ini = folder / "platformio.ini"
+    base = (PROJECT_ROOT / "platformio.ini").read_text()
+    text = f"{base}\n[env:image]\nextends = env:offline\ncustom_estimators = {estimators}\n"
+    if not ini.exists() or ini.read_text() != text:
+        ini.write_text(text)
+    install_tool_scons()
+    cmd = [sys.executable, "-m", "platformio", "run", "-d", str(PROJECT_ROOT), "-c", str(ini)]
+    env = {**_environment(CORE_DIR), "PLATFORMIO_BUILD_DIR": str(folder / "pio")}
+    proc = subprocess.run([*cmd, "-e", "image"], env=env, capture_output=True, text=True)
+    if verbose or proc.returncode != 0:
+        tail = "\n".join((proc.stdout + proc.stderr).strip().splitlines()[-30:])
+        if proc.returncode != 0:
+            raise BuildError(f"image build failed ({estimators}):\n{tail}")
+        print(tail)
+    return folder / "pio" / "image" / "firmware.elf"
 
 
 _SIZE_LINE = re.compile(r"^(RAM|Flash):\s+\[.*\]\s+(.*)$")
