@@ -2,12 +2,14 @@
 
 import dataclasses
 
+import numpy as np
 import pytest
 
-from vehil import scenario
+from vehil import plants, scenario
 from vehil.boards import open_board
 from vehil.errors import BoardError
 from vehil.estimators import acc_kf
+from vehil.protocol.schema import SCHEMA
 
 
 @pytest.mark.parametrize(("name", "limit"), [("mixed", 5e-5), ("mixed-fixed", 1e-4)])
@@ -53,3 +55,24 @@ def test_a_low_pass_cutoff_too_high_for_the_sample_time_is_refused(built) -> Non
     with open_board("native") as link, pytest.raises(BoardError, match="BAD_PARAM") as exc:
         link.configure("acc_kf", "FIXED", acc_kf.SPEC.encode_params(values, "FIXED"))
     assert exc.value.detail == [p.name for p in acc_kf.SPEC.params].index("lpf_hz")
+
+
+@pytest.mark.parametrize("mode", ["F32", "FIXED"])
+def test_a_dead_wheel_sensor_sets_diverged_where_the_reference_does(built, mode: str) -> None:  # noqa: ANN001
+    """The right wheel reads 0 from 20 s on (mixed drive): the innovations' windowed NIS
+    leaves its healthy < 0.3 for hundreds and the filter says DIVERGED; not before."""
+    sc = scenario.load("mixed")
+    trace = plants.get("acc_drive").run(sc.plant_params, 30.0, 0.01, sc.seed)
+    u = np.column_stack([trace.signals[n] for n in ("a_m", "omega_l", "omega_r", "brake")])
+    u[2000:, 2] = 0.0
+    spec = acc_kf.SPEC
+    with open_board("native") as link:
+        link.configure("acc_kf", mode, spec.encode_params(sc.params, mode))
+        requests = (("SAMPLE", {"inputs": spec.encode_inputs(x, mode)}) for x in u)
+        status = np.array([r.fields()["status"] for r in link.pipeline(requests)])
+    flagged = (status & SCHEMA.status["DIVERGED"]) != 0
+    reference = acc_kf.AccKF(sc.params)
+    for x in u:
+        reference.step(spec.quantise_inputs(x, mode))
+    assert not flagged[:2000].any() and flagged[2100:].all()
+    assert np.mean(flagged == np.array(reference.diverged)) > 0.99

@@ -7,13 +7,16 @@
 #include "fixmath/fixmath.h"
 #include "proto/wire.h"
 
-enum { P_T, P_RW, P_NV, P_NB, P_R, P_P0V, P_P0B, P_RBAR, P_C1, P_C2, P_VG, P_LPF, P_SMAX, N_PARAMS };
+enum {
+    P_T, P_RW, P_NV, P_NB, P_R, P_P0V, P_P0B, P_RBAR, P_C1, P_C2, P_VG, P_LPF,
+    P_NISMAX, P_NISWIN, P_VMAX, P_SMAX, N_PARAMS
+};
 
 static const ROM param_range_t ranges[N_PARAMS] = {
     {1e-4f, 0.1f, 30},   {0.1f, 1.0f, 24}, {0.0f, 10.0f, 27}, {0.0f, 1.0f, 30},
     {1e-6f, 100.0f, 24}, {0.0f, 7.9f, 24}, {0.0f, 1.0f, 30},  {-1.0f, 1.0f, 30},
     {0.0f, 1.0f, 0},     {0.0f, 1.0f, 0},  {0.0f, 10.0f, 16}, {0.0f, 100.0f, 24},
-    {0.0f, 0.99f, 30},
+    {0.1f, 1000.0f, 16}, {0.1f, 100.0f, 24}, {1.0f, 200.0f, 16}, {0.0f, 0.99f, 30},
 };
 
 /* The low-pass's cutoff times T, at most (0.8 of Nyquist). */
@@ -75,6 +78,14 @@ static uint8_t step_f32(acc_kf_state_t *st, const uint8_t *in, uint8_t *out)
             s->p11 = m11 - k1 * cm11;
             s->p12 = m12 - k1 * cm12;
             s->p22 = m22 - k2 * cm12;
+            /* Health (docs/estimators/acc_kf.md): the windowed NIS, v̂ within 3σ of [-v_guard,
+             * v_max] (near standstill the filter is not held to its speed). */
+            s->nis += p->alpha * (e * e * inv_s - s->nis);
+            float out_v = s->v < -p->v_guard ? s->v + p->v_guard
+                                                 : (s->v > p->v_max ? s->v - p->v_max : 0.0f);
+            if (s->nis > p->nis_max || out_v * out_v > 9.0f * s->p11) {
+                status |= STATUS_DIVERGED;
+            }
             float a_f = lpf_f32(p, s, a_m);
             s->w2_prev = p->rbar * (a_f - s->af[1]); /* eq. 6 */
             if (braking && s->v > p->v_guard) {
@@ -196,7 +207,22 @@ static void covariance_q(const acc_kf_params_q_t *p, acc_kf_q_t *s, int32_t c, u
     s->p22 = p22;
     s->k1 = k1;
     s->k2 = k2;
+    s->g = fx_sub(ONE_Q30, unit_c ? k1 : fx_mul(c, 30, k1, 30, 30, &status), &status);
     s->p_status = status;
+}
+
+/* The float32 step's health check on R e²/S = e² (1 - c k1) (so no division), against
+ * R nis_max. Its own saturation says "far off", not a saturated estimate. */
+static uint8_t health_q(const acc_kf_params_q_t *p, acc_kf_q_t *s, int32_t e)
+{
+    uint8_t hs = 0;
+    int32_t e2g = fx_mul(fx_mul(e, 20, e, 20, 20, &hs), 20, s->g, 30, 20, &hs);
+    s->nis_r = fx_add(s->nis_r, fx_mul(p->alpha, 30, fx_sub(e2g, s->nis_r, &hs), 20, 20, &hs), &hs);
+    int32_t out_v = s->v < -p->v_guard ? fx_add(s->v, p->v_guard, &hs)
+                                       : (s->v > p->v_max ? fx_sub(s->v, p->v_max, &hs) : 0);
+    int32_t var9 = fx_mul(s->p11, 28, INT32_C(9) << 24, 24, 20, &hs); /* 9 P11, Q20 */
+    uint8_t bad = s->nis_r > p->nis_lim || (out_v != 0 && fx_mul(out_v, 20, out_v, 20, 20, &hs) > var9);
+    return bad ? STATUS_DIVERGED : 0u;
 }
 
 static uint8_t step_q(acc_kf_state_t *st, const uint8_t *in, uint8_t *out)
@@ -234,6 +260,7 @@ static uint8_t step_q(acc_kf_state_t *st, const uint8_t *in, uint8_t *out)
         int32_t e = fx_sub(v_m, c_v_pred, &status); /* Q20 */
         s->v = fx_add(v_pred, fx_mul(k1, 30, e, 20, 20, &status), &status);
         s->a0 = fx_add(b_pred, fx_mul(k2, 30, e, 20, 24, &status), &status);
+        status |= health_q(p, s, e);
         int32_t a_f = lpf_q(p, s, a_m, &status);
         s->w2_prev = fx_mul(p->rbar, 30, fx_sub(a_f, s->af[1], &status), 24, 24, &status);
         if (braking && s->v > p->v_guard) {
@@ -318,6 +345,9 @@ static uint8_t acc_kf_configure(void *state, uint8_t mode, const uint8_t *params
         p->rbar = get_f32(params + 4u * P_RBAR);
         p->v_guard = get_f32(params + 4u * P_VG);
         p->s_max = get_f32(params + 4u * P_SMAX);
+        p->alpha = p->T / get_f32(params + 4u * P_NISWIN);
+        p->nis_max = get_f32(params + 4u * P_NISMAX);
+        p->v_max = get_f32(params + 4u * P_VMAX);
         for (uint8_t i = 0; i < 3u; i++) {
             p->b[i] = d.b[i];
         }
@@ -338,6 +368,12 @@ static uint8_t acc_kf_configure(void *state, uint8_t mode, const uint8_t *params
         p->rbar = param_q(params, P_RBAR);
         p->v_guard = fx_rescale(param_q(params, P_VG), 16, 20, &sat);
         p->s_max = param_q(params, P_SMAX);
+        float T = param_value(params, P_T, mode, 30);
+        uint8_t clip = 0; /* R nis_max past Q20's 2048 (m/s)²: the limit is the format's */
+        p->alpha = fx_from_float(T / param_value(params, P_NISWIN, mode, 24), 30, &sat);
+        p->nis_lim = fx_from_float(param_value(params, P_R, mode, 24) *
+                                       param_value(params, P_NISMAX, mode, 16), 20, &clip);
+        p->v_max = fx_rescale(param_q(params, P_VMAX), 16, 20, &sat);
         for (uint8_t i = 0; i < 3u; i++) {
             p->b[i] = fx_from_float(d.b[i], 29, &sat);
         }

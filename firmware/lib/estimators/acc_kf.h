@@ -8,7 +8,10 @@
  * Outputs v̂_r [m/s] Q16, â_0 [m/s²] Q24.
  * Params  T [s] Q30, r_w [m] Q24, n_v [(m/s)²/s] Q27, n_b [(m/s²)²/s] Q30, R [(m/s)²]
  *         Q24, p0_v Q24, p0_b Q30, r̄ Q30, corr1 Q0, corr2 Q0, v_guard [m/s] Q16,
- *         lpf_hz [Hz] Q24 (0: a_f = a_m), s_max Q30.
+ *         lpf_hz [Hz] Q24 (0: a_f = a_m), nis_max Q16, nis_window [s] Q24, v_max [m/s]
+ *         Q16, s_max Q30.
+ * Health: DIVERGED when the innovations' e²/S averaged over nis_window passes nis_max, or
+ * v̂ is more than 3σ (σ² = P11) outside [0, v_max].
  * CONFIG derives the step's numbers from them and T: Q11 = n_v T, Q22 = n_b T and the
  * LPF's eq. 4b coefficients (a Butterworth at lpf_hz, lpf_hz T <= 0.4), so the step
  * itself sees per-step values only. */
@@ -23,6 +26,7 @@
 
 typedef struct {
     float T, r_w_half, q_v, q_b, R, p0_v, p0_b, rbar, v_guard, s_max;
+    float alpha, nis_max, v_max; /* health: T / nis_window, ... */
     float b[3], c[2];
 } acc_kf_params_f32_t;
 
@@ -31,6 +35,7 @@ typedef struct {
     float p11, p12, p22;  /* P, symmetric */
     float u_prev, w2_prev, slip;
     float am[2], af[2];   /* a_m(k-1), a_m(k-2); a_f(k-1), a_f(k-2) */
+    float nis;            /* e²/S averaged */
 } acc_kf_f32_t;
 
 /* Fixed point: the Q format of each member is in its comment. */
@@ -47,6 +52,9 @@ typedef struct {
     int32_t v_guard;      /* Q20 */
     int32_t s_max;        /* Q30 */
     int32_t b[3], c[2];   /* Q29 */
+    int32_t alpha;        /* Q30: T / nis_window */
+    int32_t nis_lim;      /* Q20: R nis_max (m/s)², at most 2048 */
+    int32_t v_max;        /* Q20 */
 } acc_kf_params_q_t;
 
 typedef struct {
@@ -59,6 +67,8 @@ typedef struct {
     int32_t slip;         /* Q30 */
     int32_t am[2], af[2]; /* Q24 */
     int32_t k1, k2;       /* Q30: the last gains */
+    int32_t g;            /* Q30: 1 - c k1 = R / S */
+    int32_t nis_r;        /* Q20: R e²/S averaged, (m/s)² */
     uint8_t p_steady;     /* the last update, with c = 1, left P unchanged */
     uint8_t p_status;     /* the flags the last covariance update raised */
 } acc_kf_q_t;

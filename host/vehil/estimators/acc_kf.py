@@ -74,6 +74,17 @@ PARAMS = (
         doc="low-pass cutoff of a_f (note §1.9), at most 0.4/T; 0: a_f = a_m",
     ),
     Param(
+        "nis_max",
+        "1",
+        q=16,
+        default=3.0,
+        lo=0.1,
+        hi=1000.0,
+        doc="windowed NIS above which DIVERGED (healthy drives stay below 1: R is conservative)",
+    ),
+    Param("nis_window", "s", q=24, default=1.0, lo=0.1, hi=100.0, doc="NIS averaging time"),
+    Param("v_max", "m/s", q=16, default=100.0, lo=1.0, hi=200.0, doc="highest plausible speed"),
+    Param(
         "s_max",
         "1",
         q=30,
@@ -133,6 +144,8 @@ class AccKF:
         self.u_prev = 0.0
         self.w2_prev = 0.0  # ŵ_s(k-1), bias channel
         self.slip = 0.0
+        self.nis = 0.0  # the innovations' e²/S, averaged over nis_window
+        self.diverged: list[bool] = []
         self.am_hist = [0.0, 0.0]  # a_m(k-1), a_m(k-2)
         self.af_hist = [0.0, 0.0]  # a_f(k-1), a_f(k-2)
 
@@ -162,6 +175,7 @@ class AccKF:
             self.u_prev = a_m
             self.am_hist = [a_m, a_m]
             self.af_hist = [a_m, a_m]
+            self.diverged.append(False)
             return np.array([self.v, self.a0])
         # Prediction with the previous input and noise mean (note §1.7).
         w2 = self.w2_prev if p["corr1"] >= 0.5 else 0.0
@@ -181,6 +195,12 @@ class AccKF:
         self.P = np.array(
             [[m11 - k1 * c * m11, m12 - k1 * c * m12], [m12 - k1 * c * m12, m22 - k2 * c * m12]]
         )
+        # Health (docs/estimators/acc_kf.md): the windowed NIS, and v̂ within 3σ of
+        # [-v_guard, v_max] (near standstill the filter is not held to its speed).
+        self.nis += p["T"] / p["nis_window"] * (e * e / S - self.nis)
+        low = self.v + p["v_guard"]
+        out = low if low < 0 else max(self.v - p["v_max"], 0.0)
+        self.diverged.append(self.nis > p["nis_max"] or out * out > 9.0 * self.P[0, 0])
         a_f = self._lpf(a_m)
         self.w2_prev = p["rbar"] * (a_f - self.af_hist[1])
         if braking and self.v > p["v_guard"]:
