@@ -10,6 +10,7 @@ import sys
 from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
+from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
@@ -17,6 +18,8 @@ from rich.markup import escape
 from rich.table import Table
 
 from vehil.compare import EXIT_ERROR, Verdict
+from vehil.paths import runs_dir
+from vehil.results import Case, case_from_folder, failed_case
 from vehil.scenario import ScenarioError, find, scenario_dirs
 
 GLOB_CHARS = frozenset("*?[")
@@ -78,6 +81,37 @@ def run_all(
     """Runs every scenario, `jobs` at a time (each its own process and board)."""
     with ThreadPoolExecutor(max_workers=jobs) as pool:
         return list(pool.map(lambda p: _run_one(p, options, out), paths))
+
+
+def run_dask(paths: Sequence[Path], out: Path | None, client: Any) -> tuple[list[Outcome], Path]:
+    """Every scenario on the Dask cluster (native board), each writing its recording and
+    report as `vehil run` does; their figures as one Arrow dataset (results/)."""
+    from vehil import campaign
+    from vehil.runner import default_recording_path
+    from vehil.scenario import load
+
+    stamp = datetime.now(UTC).strftime("%Y%m%dT%H%M%SZ")
+    root = out or runs_dir() / f"campaign-{stamp}"
+    jobs = []
+    for path in paths:
+        sc = load(path)
+        recording = (
+            out / path.stem / "run.arrow" if out else default_recording_path(sc, campaign.BOARD)
+        )
+        jobs.append(campaign.Job(path.stem, sc, recording, report=True))
+    done = campaign.run(client, jobs)
+    outcomes = [
+        Outcome(d.job.name, d.figures.verdict, d.samples, d.wall_s, str(d.job.recording))
+        for d in done
+    ]
+    return outcomes, campaign.write_dataset(campaign.rows(done), root / "results")
+
+
+def case(o: Outcome) -> Case:
+    """The run's own figures.json, for JUnit and the HTML report."""
+    if o.recording is None:
+        return failed_case(o.scenario, o.verdict.reason)
+    return case_from_folder(Path(o.recording).parent, o.scenario)
 
 
 def worst(outcomes: Sequence[Outcome]) -> int:

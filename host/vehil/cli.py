@@ -98,6 +98,84 @@ def _labgrid(args: argparse.Namespace) -> LabgridOptions | None:
     return LabgridOptions(wait_s=getattr(args, "acquire_timeout", 60.0))
 
 
+def _add_result_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--junit",
+        metavar="FILE",
+        help="also write JUnit XML: each run a test case, its figures as properties",
+    )
+    p.add_argument(
+        "--html",
+        metavar="FILE",
+        help="also write one self-contained HTML report (verdicts, figures, plots, details)",
+    )
+    p.add_argument(
+        "--baseline",
+        metavar="PATH",
+        help="the HTML report's trend: a run's figures.json, an earlier report's "
+        "results.json, or a folder of runs",
+    )
+
+
+def _add_dask_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--dask",
+        action="store_true",
+        help="hand the runs (native board) to Dask distributed: a local cluster, or --scheduler",
+    )
+    p.add_argument(
+        "--workers", type=int, default=None, help="--dask: local worker processes (all cores)"
+    )
+    p.add_argument(
+        "--scheduler", metavar="ADDRESS", help="a running Dask scheduler (tcp://host:8786)"
+    )
+
+
+@contextlib.contextmanager
+def _dask_client(args: argparse.Namespace) -> Iterator[Any]:
+    """A Dask client if the command was asked to use one, else None (runs stay here)."""
+    if not (args.dask or args.scheduler):
+        if args.workers is not None:
+            raise VehilError("--workers is the local Dask cluster's: give --dask too")
+        yield None
+        return
+    from vehil import campaign
+
+    campaign.check_board(args.board)
+    with campaign.cluster(args.scheduler, args.workers) as client:
+        console.print(
+            f"Dask: {len(client.scheduler_info()['workers'])} workers at {client.scheduler.address}"
+        )
+        yield client
+
+
+def _baseline(args: argparse.Namespace) -> dict[str, Any] | None:
+    """Read before any run: a baseline that cannot be read stops nothing half-way."""
+    from vehil import results
+
+    if args.baseline and not args.html:
+        raise VehilError("--baseline is the HTML report's trend: give --html FILE too")
+    return results.load_baseline(Path(args.baseline)) if args.baseline else None
+
+
+def _write_results(
+    args: argparse.Namespace,
+    cases: Sequence[Any],
+    title: str,
+    baseline: dict[str, Any] | None,
+    images: Sequence[Path] = (),
+) -> None:
+    """JUnit XML and the HTML report (with results.json beside it), as asked."""
+    from vehil import results
+
+    if args.junit:
+        console.print(f"junit     {results.junit(cases, 'vehil', Path(args.junit))}")
+    if args.html:
+        page = results.write_html(cases, title, Path(args.html), baseline, images)
+        results.write_json(cases, title, page.with_suffix(".json"))
+        console.print(f"html      {page}")
+
+
 def _board(args: argparse.Namespace) -> Board:
     return make_board(args.board, _options(args), labgrid=_labgrid(args))
 
@@ -274,13 +352,6 @@ def _open_recording(path_str: str):  # noqa: ANN202
     return record.read(path)
 
 
-def _firmware(info: dict[str, Any]) -> str | None:
-    """The build id as INFO and the recording give it, `+dirty` included."""
-    if info.get("build_id") is None:
-        return None
-    return f"{info['build_id']:08x}{'+dirty' if info.get('build_dirty') else ''}"
-
-
 def _finish_run(
     args: argparse.Namespace,
     run,
@@ -289,30 +360,12 @@ def _finish_run(
 ) -> int:
     """Evaluates a run once; the console, report.md, figures.json and the exit status
     all say its verdict."""
-    from vehil import compare, report
+    from vehil import report
 
-    series = compare.series_from_run(run)
-    figures = compare.evaluate(series)
-    sc = run.prepared.scenario
+    figures = run.figures
+    sc = run.scenario
     rate = run.done / run.wall_s if run.wall_s else 0.0
-    context = {
-        "title": title,
-        "scenario": sc.name,
-        "board": run.board,
-        "mode": sc.mode,
-        "firmware": _firmware(run.info),
-        "input": input_note,
-        "ended": run.ended,
-        "error": run.error,
-        "wall_s": round(run.wall_s, 3),
-        "samples_per_s": round(rate, 1),
-        "recording": str(run.recording) if run.recording else None,
-        "log_inputs": getattr(run.prepared.trace, "timing", None),
-        "log_notes": getattr(run.prepared.trace, "notes", None),
-        "board_resets": [
-            {"at_sample": r.at_sample, "recovery_s": round(r.recovery_s, 3)} for r in run.resumes
-        ],
-    }
+    context = report.run_context(run, title, input_note)
     _show(args, report.summary_table(figures, title), {**context, **figures.to_json()})
     expected = f"{run.expected:,}" if run.expected is not None else "?"
     console.print(
@@ -326,7 +379,7 @@ def _finish_run(
             f"before (each answer checked) and the run went on after {r.recovery_s * 1e3:.0f} ms"
         )
     if run.recording is not None:
-        md = report.write(series, figures, context, run.recording.parent)
+        md = report.write_run(run, context)
         console.print(f"recording {run.recording}\nreport    {md}")
     for note in context["log_notes"] or ():
         console.print(f"[yellow]log:[/] {note}")
@@ -351,17 +404,39 @@ def cmd_run_several(args: argparse.Namespace) -> int:
     from vehil import batch
 
     paths = batch.expand(args.scenario)
+    if args.dask or args.scheduler:
+        return _run_on_dask(args, paths)
     if len(paths) == 1 and args.jobs == 1:
         args.scenario = [str(paths[0])]
         return cmd_run(args)
     if args.jobs < 1:
         raise VehilError(f"--jobs {args.jobs}: give 1 or more boards to run on")
+    baseline = _baseline(args)
     console.print(f"{len(paths)} scenarios on {args.board}, {args.jobs} at a time")
     outcomes = batch.run_all(
         paths, _forwarded_run_options(args), args.jobs, Path(args.out) if args.out else None
     )
     title = f"{len(paths)} scenarios on {args.board} ({args.jobs} at a time)"
     _show(args, batch.table(outcomes, title), [batch.to_json(o) for o in outcomes])
+    _write_results(args, [batch.case(o) for o in outcomes], title, baseline)
+    return batch.worst(outcomes)
+
+
+def _run_on_dask(args: argparse.Namespace, paths: list[Path]) -> int:
+    from vehil import batch
+
+    given = {"--realtime": args.realtime, "--faults": args.faults, "--window": args.window}
+    given |= {"--profile": args.profile, "--baud": args.baud}
+    if used := [flag for flag, v in given.items() if v]:
+        raise VehilError(f"{', '.join(used)}: not for runs on Dask (native board, lockstep)")
+    baseline = _baseline(args)
+    out = Path(args.out) if args.out else None
+    with _dask_client(args) as client:
+        outcomes, dataset = batch.run_dask(paths, out, client)
+    title = f"{len(paths)} scenarios on {args.board} (Dask)"
+    _show(args, batch.table(outcomes, title), [batch.to_json(o) for o in outcomes])
+    console.print(f"dataset   {dataset}")
+    _write_results(args, [batch.case(o) for o in outcomes], title, baseline)
     return batch.worst(outcomes)
 
 
@@ -369,6 +444,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     from vehil import runner, scenario
 
     sc = scenario.load(args.scenario[0])
+    baseline = _baseline(args)
     recording = Path(args.out) / "run.arrow" if args.out else None
     board, profiled = _board(args), None
     if args.profile:
@@ -385,7 +461,12 @@ def cmd_run(args: argparse.Namespace) -> int:
         recording=recording,
         timeout_s=args.timeout,
     )
-    code = _finish_run(args, run, f"{sc.name}: {sc.estimator.name} ({sc.mode}) on {args.board}")
+    title = f"{sc.name}: {sc.estimator.name} ({sc.mode}) on {args.board}"
+    code = _finish_run(args, run, title)
+    if run.recording is not None:
+        from vehil.results import case_from_folder
+
+        _write_results(args, [case_from_folder(run.recording.parent, sc.name)], title, baseline)
     if profiled is not None:
         from vehil.fnprofile.command import run_profile
 
@@ -583,16 +664,19 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     found = sweep.perturbations(sc, extra)
     if args.drives < 1:
         raise scenario.ScenarioError(f"-n {args.drives}: a sweep needs at least one drive")
-    result = sweep.run(
-        sc,
-        found,
-        args.drives,
-        _board(args),
-        matched=args.matched,
-        seed=args.seed,
-        out=Path(args.out) if args.out else None,
-        console=console,
-    )
+    baseline = _baseline(args)
+    with _dask_client(args) as client:
+        result = sweep.run(
+            sc,
+            found,
+            args.drives,
+            args.board if client is not None else _board(args),
+            matched=args.matched,
+            seed=args.seed,
+            out=Path(args.out) if args.out else None,
+            console=console,
+            client=client,
+        )
     md = sweep.write(result)
     if args.json:
         args.json_out.append(result.to_json())
@@ -600,6 +684,8 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         console.print(sweep.distribution_table(result))
         console.print(sweep.flag_table(result))
     console.print(f"report {md}")
+    title = f"sweep {sc.name}: {len(result.drives)} drives on {result.board}"
+    _write_results(args, sweep.cases(result), title, baseline, [result.out / "sweep.png"])
     return 0
 
 
@@ -792,6 +878,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     _add_board_options(p)
     _add_run_options(p)
+    _add_result_options(p)
+    _add_dask_options(p)
     p.add_argument("--window", type=int, default=None, help="samples in flight (lockstep)")
     p.add_argument(
         "--profile", action="store_true", help="simavr: cycles per function of every step, too"
@@ -876,6 +964,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     p.add_argument("--seed", type=int, default=None, help="seed of the draws (the scenario's)")
     p.add_argument("--out", default=None, help="folder for the drives, sweep.md/.png/.json")
+    _add_result_options(p)
+    _add_dask_options(p)
     p.set_defaults(func=cmd_sweep)
 
     p = sub.add_parser("profile", help="baud/latency/throughput sweep and estimator costs")

@@ -160,85 +160,296 @@ class Figures:
         return d
 
 
-def _err_stats(err: np.ndarray) -> tuple[float | None, float | None, int | None]:
-    if len(err) == 0:
-        return None, None, None
-    a = np.abs(err)
-    return float(np.sqrt(np.mean(err**2))), float(a.max()), int(a.argmax())
+class _Errors:
+    """RMS, largest |error| and where, over chunks: sums and maxima, never the samples."""
+
+    def __init__(self) -> None:
+        self.n = 0
+        self.sumsq = 0.0
+        self.max_abs = -1.0
+        self.worst_k = 0
+
+    def add(self, err: np.ndarray, ks: np.ndarray) -> None:
+        if not len(err):
+            return
+        a = np.abs(err)
+        i = int(a.argmax())
+        if a[i] > self.max_abs:  # the first of equal maxima, as argmax over the whole
+            self.max_abs, self.worst_k = float(a[i]), int(ks[i])
+        self.sumsq += float(np.sum(err**2))
+        self.n += len(err)
+
+    def stats(self) -> tuple[float | None, float | None, int | None]:
+        if not self.n:
+            return None, None, None
+        return float(np.sqrt(self.sumsq / self.n)), self.max_abs, self.worst_k
 
 
-def _output(s: Series, j: int, name: str) -> OutputFigures:
-    n = len(s.board)
-    tol = s.tolerances.get(name)
-    b, r = s.board[:, j], s.reference[:, j]
-    if tol is not None and n:
-        rule = tol
-        over = (np.abs(b - r) > rule.abs + rule.rel * np.abs(r)) & (s.t[:n] >= rule.from_s)
-        outside: int | None = int(over.sum())
-        ref_passed: bool | None = outside == 0
-    else:
-        outside, ref_passed = None, None
-    reference = ReferenceCheck(*_err_stats(b - r), tol, outside, ref_passed)
-    truth = None
-    if name in s.truth:
-        scored = np.flatnonzero(s.t[:n] >= s.score_from_s)
-        true = s.truth[name][:n][scored]
-        rmse, max_abs, worst = _err_stats(b[scored] - true)
-        worst_k = None if worst is None else int(scored[worst])
-        limit = tol.truth_rms if tol is not None else None
-        truth_passed = None if limit is None or rmse is None else rmse <= limit
-        ref_rmse = _err_stats(r[scored] - true)[0]
-        truth = TruthCheck(rmse, max_abs, worst_k, ref_rmse, limit, truth_passed, s.score_from_s)
-    bits = None
-    if tol is not None and tol.bit_exact:
-        if s.native is not None and n:
-            mism = int(np.sum(b != s.native[:n, j]))
-            bits = BitExactCheck(mism, mism == 0)
-        elif s.native_board:
-            bits = BitExactCheck(None, None, "the board is the native build itself")
+class _Output:
+    def __init__(self, tol: Tolerance | None, has_truth: bool):
+        self.tol = tol
+        self.ref = _Errors()
+        self.outside = 0
+        self.truth = _Errors() if has_truth else None
+        self.ref_vs_truth = _Errors()
+        self.mismatches: int | None = None
+
+
+def _lerp(a: float, b: float, g: float) -> float:
+    """numpy's linear interpolation between order statistics, to its rounding."""
+    d = b - a
+    return b - d * (1 - g) if g >= 0.5 else a + d * g
+
+
+class _Quantiles:
+    """Exact percentiles of integer values (cycles) from their counts."""
+
+    def __init__(self) -> None:
+        self.counts: dict[int, int] = {}
+
+    def add(self, x: np.ndarray) -> None:
+        values, counts = np.unique(x, return_counts=True)
+        for v, c in zip(values.tolist(), counts.tolist(), strict=True):
+            self.counts[v] = self.counts.get(v, 0) + c
+
+    def order_stat(self, values: np.ndarray, cum: np.ndarray, i: int) -> float:
+        return float(values[int(np.searchsorted(cum, i, side="right"))])
+
+    def percentile(self, q: float) -> float | None:
+        if not self.counts:
+            return None
+        values = np.array(sorted(self.counts))
+        cum = np.cumsum([self.counts[v] for v in values])
+        h = (cum[-1] - 1) * (q / 100)
+        lo = int(np.floor(h))
+        a = self.order_stat(values, cum, lo)
+        b = self.order_stat(values, cum, min(lo + 1, int(cum[-1]) - 1))
+        return _lerp(a, b, h - lo)
+
+
+# Round trips (host clock, seconds) counted in log-spaced bins: 1000 a decade from 100 ns
+# to 1000 s, so a percentile is within 0.12 % whatever the run's length.
+_RTT_EDGES = np.logspace(-7, 3, 10_001)
+
+
+class _Latency:
+    def __init__(self) -> None:
+        self.counts = np.zeros(len(_RTT_EDGES) + 1, dtype=np.int64)
+        self.max = 0.0
+
+    def add(self, rtt: np.ndarray) -> None:
+        if len(rtt):
+            self.counts += np.bincount(np.searchsorted(_RTT_EDGES, rtt), minlength=len(self.counts))
+            self.max = max(self.max, float(rtt.max()))
+
+    def percentile(self, q: float) -> float | None:
+        n = int(self.counts.sum())
+        if not n:
+            return None
+        i = int(np.searchsorted(np.cumsum(self.counts), (n - 1) * q / 100, side="right"))
+        lo = _RTT_EDGES[max(i - 1, 0)]
+        hi = _RTT_EDGES[min(i, len(_RTT_EDGES) - 1)]
+        return min(float(np.sqrt(lo * hi)), self.max)  # the bin's middle
+
+
+class Metrics:
+    """A run's figures accumulated chunk by chunk (as recorded, or as read back), so a run
+    of any length is judged in the memory of one chunk; `figures()` gives the verdict."""
+
+    def __init__(
+        self,
+        names: list[str],
+        units: dict[str, str],
+        tolerances: dict[str, Tolerance],
+        truth_names: list[str] | tuple[str, ...],
+        score_from_s: float = 0.0,
+        expect_flags: tuple[str, ...] = (),
+    ):
+        self.names, self.units, self.score_from_s = names, units, score_from_s
+        self.expect_flags = expect_flags  # status flags the drive was built to raise
+        self.first_diverged_t: float | None = None
+        self.outputs = {n: _Output(tolerances.get(n), n in truth_names) for n in names}
+        self.samples = 0
+        self.cycles = _Quantiles()
+        self.cycles_min: int | None = None
+        self.cycles_max: int | None = None
+        self.rtt = _Latency()
+        self.late = 0
+        self.flags = dict.fromkeys(SCHEMA.status, 0)
+
+    def add(
+        self,
+        t: np.ndarray,
+        board: np.ndarray,
+        reference: np.ndarray,
+        truth: dict[str, np.ndarray],
+        status: np.ndarray,
+        cycles: np.ndarray,
+        rtt_s: np.ndarray,
+        late: np.ndarray,
+        native: np.ndarray | None = None,
+    ) -> None:
+        """Samples `samples` .. `samples + len(board) - 1`, in order."""
+        n = len(board)
+        if not n:
+            return
+        ks = np.arange(self.samples, self.samples + n)
+        t = t[:n]
+        scored = t >= self.score_from_s
+        for j, name in enumerate(self.names):
+            o = self.outputs[name]
+            b, r = board[:, j], reference[:n, j]
+            o.ref.add(b - r, ks)
+            if o.tol is not None:
+                over = (np.abs(b - r) > o.tol.abs + o.tol.rel * np.abs(r)) & (t >= o.tol.from_s)
+                o.outside += int(over.sum())
+            if o.truth is not None:
+                true = truth[name][:n][scored]
+                o.truth.add(b[scored] - true, ks[scored])
+                o.ref_vs_truth.add(r[scored] - true, ks[scored])
+            if native is not None:
+                o.mismatches = (o.mismatches or 0) + int(np.sum(b != native[:n, j]))
+        c = cycles.astype(np.int64)
+        self.cycles.add(c)
+        lo, hi = int(c.min()), int(c.max())
+        self.cycles_min = lo if self.cycles_min is None else min(self.cycles_min, lo)
+        self.cycles_max = hi if self.cycles_max is None else max(self.cycles_max, hi)
+        self.rtt.add(rtt_s)
+        self.late += int(np.sum(late))
+        for flag, bit in SCHEMA.status.items():
+            self.flags[flag] += int(np.sum((status & bit) != 0))
+        diverged = np.flatnonzero(status & SCHEMA.status["DIVERGED"])
+        if self.first_diverged_t is None and len(diverged):
+            self.first_diverged_t = float(t[diverged[0]])
+        self.samples += n
+
+    def add_columns(self, d: dict[str, np.ndarray]) -> None:
+        """A recording's batch, by its column names (vehil.record)."""
+        names = self.names
+        empty = np.empty((len(d["k"]), 0))
+        self.add(
+            d["t"],
+            np.column_stack([d[f"board.{n}"] for n in names]) if names else empty,
+            np.column_stack([d[f"ref.{n}"] for n in names]) if names else empty,
+            {n: d[f"truth.{n}"] for n in names if f"truth.{n}" in d},
+            d["status"],
+            d["cycles"],
+            d["rtt_s"],
+            d["late"],
+        )
+
+    def _output(self, name: str, native_board: bool) -> OutputFigures:
+        o = self.outputs[name]
+        tol = o.tol
+        if tol is not None and self.samples:
+            outside: int | None = o.outside
+            ref_passed: bool | None = outside == 0
         else:
-            bits = BitExactCheck(None, None, "no native outputs to compare with")
-    return OutputFigures(s.units.get(name, ""), reference, truth, bits)
+            outside, ref_passed = None, None
+        reference = ReferenceCheck(*o.ref.stats(), tol, outside, ref_passed)
+        truth = None
+        if o.truth is not None:
+            rmse, max_abs, worst_k = o.truth.stats()
+            limit = tol.truth_rms if tol is not None else None
+            truth_passed = None if limit is None or rmse is None else rmse <= limit
+            ref_rmse = o.ref_vs_truth.stats()[0]
+            truth = TruthCheck(
+                rmse, max_abs, worst_k, ref_rmse, limit, truth_passed, self.score_from_s
+            )
+        bits = None
+        if tol is not None and tol.bit_exact:
+            if o.mismatches is not None and self.samples:
+                bits = BitExactCheck(o.mismatches, o.mismatches == 0)
+            elif native_board:
+                bits = BitExactCheck(None, None, "the board is the native build itself")
+            else:
+                bits = BitExactCheck(None, None, "no native outputs to compare with")
+        return OutputFigures(self.units.get(name, ""), reference, truth, bits)
+
+    def figures(
+        self,
+        *,
+        ended: str = "completed",
+        error: str | None = None,
+        expected: int | None = None,
+        stop_signal: int | None = None,
+        stack_bytes: int | None = None,
+        native_board: bool = False,
+        mismatches: dict[str, int] | None = None,
+    ) -> Figures:
+        """The figures and the verdict; `mismatches`: per output, samples whose bits differ
+        from the native build's (counted apart from the run, see runner.native_mismatches)."""
+        for name, count in (mismatches or {}).items():
+            self.outputs[name].mismatches = count
+        outputs = {name: self._output(name, native_board) for name in self.names}
+        n = self.samples
+        rtt_ms = {
+            "p50": _ms(self.rtt.percentile(50)),
+            "p99": _ms(self.rtt.percentile(99)),
+            "max": self.rtt.max * 1e3 if n else None,
+        }
+        return Figures(
+            samples=n,
+            expected=expected,
+            outputs=outputs,
+            cycles={
+                "min": self.cycles_min,
+                "median": self.cycles.percentile(50),
+                "max": self.cycles_max,
+            },
+            rtt_ms=rtt_ms,
+            late=self.late,
+            stack_bytes=stack_bytes,
+            status=dict(self.flags),
+            ended=ended,
+            error=error,
+            verdict=_verdict(n, expected, ended, error, stop_signal, outputs, self._health()),
+        )
+
+    def _health(self) -> tuple[dict[str, int], str | None]:
+        """The flags raised (samples each), and why the estimator's health fails the run:
+        it diverged where the drive was not built for it, or a flag the drive was built
+        to raise never fired (None if neither)."""
+        raised = {name: n for name, n in self.flags.items() if n}
+        if "DIVERGED" in raised and "DIVERGED" not in self.expect_flags:
+            first = self.first_diverged_t
+            return raised, f"DIVERGED on {raised['DIVERGED']:,} samples (first at t = {first:g} s)"
+        missing = [f for f in self.expect_flags if f not in raised]
+        if missing:
+            return raised, f"expected {', '.join(missing)}, never raised"
+        return raised, None
 
 
-def _flags_raised(s: Series) -> dict[str, int]:
-    """Samples on which each status flag was set, for the flags that were."""
-    counts = {name: int(np.sum((s.status & bit) != 0)) for name, bit in SCHEMA.status.items()}
-    return {name: n for name, n in counts.items() if n}
+def _ms(s: float | None) -> float | None:
+    return None if s is None else s * 1e3
 
 
-def _health(s: Series, raised: dict[str, int]) -> str | None:
-    """Why the estimator's health fails the run: it diverged where the drive was not built
-    for it, or a flag the drive was built to raise never fired. None if neither."""
-    if "DIVERGED" in raised and "DIVERGED" not in s.expect_flags:
-        first = int(np.flatnonzero(s.status & SCHEMA.status["DIVERGED"])[0])
-        return f"DIVERGED on {raised['DIVERGED']:,} samples (first at t = {s.t[first]:g} s)"
-    missing = [f for f in s.expect_flags if f not in raised]
-    if missing:
-        return f"expected {', '.join(missing)}, never raised"
-    return None
-
-
-def _verdict(s: Series, outputs: dict[str, OutputFigures]) -> Verdict:
-    n = len(s.board)
-    of = f"{n:,} of {s.expected:,}" if s.expected is not None else f"{n:,}"
-    if s.ended == "interrupted":
-        number = s.stop_signal or signal.SIGINT
-        why = s.error or f"stopped after {of} samples"
+def _verdict(
+    n: int,
+    expected: int | None,
+    ended: str,
+    error: str | None,
+    stop_signal: int | None,
+    outputs: dict[str, OutputFigures],
+    health: tuple[dict[str, int], str | None],
+) -> Verdict:
+    of = f"{n:,} of {expected:,}" if expected is not None else f"{n:,}"
+    if ended == "interrupted":
+        number = stop_signal or signal.SIGINT
+        why = error or f"stopped after {of} samples"
         return Verdict("INTERRUPTED", why, 128 + int(number))
-    if s.ended != "completed":
-        return Verdict("FAILED", s.error or f"after {of} samples", EXIT_ERROR)
-    if s.expected is not None and n < s.expected:
+    if ended != "completed":
+        return Verdict("FAILED", error or f"after {of} samples", EXIT_ERROR)
+    if expected is not None and n < expected:
         return Verdict("FAILED", f"incomplete: {of} samples", EXIT_ERROR)
     if n == 0:
         return Verdict("NOT CHECKED", "no samples", EXIT_FAIL)
-    raised = _flags_raised(s)
+    raised, unhealthy = health
     shown = "; flags: " + ", ".join(f"{k} x{v:,}" for k, v in raised.items()) if raised else ""
     failed = {name: o.failed() for name, o in outputs.items() if o.passed is False}
     if failed:
         where = "; ".join(f"{name} ({', '.join(checks)})" for name, checks in failed.items())
         return Verdict("FAIL", f"out of tolerance: {where}{shown}", EXIT_FAIL)
-    unhealthy = _health(s, raised)
     if unhealthy:
         return Verdict("FAIL", f"{unhealthy}{shown}", EXIT_FAIL)
     unchecked = [name for name, o in outputs.items() if o.passed is None]
@@ -256,33 +467,16 @@ def _verdict(s: Series, outputs: dict[str, OutputFigures]) -> Verdict:
 
 
 def evaluate(s: Series) -> Figures:
-    n = len(s.board)
-    outputs = {name: _output(s, j, name) for j, name in enumerate(s.names)}
-    flags = {name: int(np.sum((s.status & bit) != 0)) for name, bit in SCHEMA.status.items()}
-
-    def pct(x: np.ndarray, q: float) -> float | None:
-        return float(np.percentile(x, q)) if len(x) else None
-
-    return Figures(
-        samples=n,
-        expected=s.expected,
-        outputs=outputs,
-        cycles={
-            "min": int(s.cycles.min()) if n else None,
-            "median": pct(s.cycles, 50),
-            "max": int(s.cycles.max()) if n else None,
-        },
-        rtt_ms={
-            "p50": pct(s.rtt_s * 1e3, 50),
-            "p99": pct(s.rtt_s * 1e3, 99),
-            "max": float(s.rtt_s.max() * 1e3) if n else None,
-        },
-        late=int(s.late.sum()),
-        stack_bytes=s.stack_bytes,
-        status=flags,
+    """A Series held whole, judged as one chunk."""
+    m = Metrics(s.names, s.units, s.tolerances, list(s.truth), s.score_from_s, s.expect_flags)
+    m.add(s.t, s.board, s.reference, s.truth, s.status, s.cycles, s.rtt_s, s.late, s.native)
+    return m.figures(
         ended=s.ended,
         error=s.error,
-        verdict=_verdict(s, outputs),
+        expected=s.expected,
+        stop_signal=s.stop_signal,
+        stack_bytes=s.stack_bytes,
+        native_board=s.native_board,
     )
 
 
@@ -354,34 +548,4 @@ def series_from_recording(rec: Any) -> Series:
         stop_signal=end.get("signal"),
         score_from_s=rec.header.get("scenario", {}).get("score_from_s", 0.0),
         expect_flags=tuple(rec.header.get("scenario", {}).get("expect_flags", ())),
-    )
-
-
-def series_from_run(run: Any) -> Series:
-    """A vehil.runner.Run as a Series."""
-    p = run.prepared
-    n = run.done
-    spec = p.scenario.estimator
-    return Series(
-        names=p.output_names,
-        units={s.name: s.unit for s in (*spec.inputs, *spec.outputs)},
-        t=p.trace.t[:n],
-        board=run.board_out,
-        reference=p.reference[:n],
-        truth={k: v[:n] for k, v in p.truth().items()},
-        status=run.status,
-        cycles=run.cycles,
-        rtt_s=run.rtt_s,
-        late=run.late,
-        tolerances=dict(p.scenario.tolerances),
-        native=run.native_out,
-        stack_bytes=run.stack_bytes,
-        board_name=run.board,
-        native_board=run.board == "native",
-        ended=run.ended,
-        error=run.error,
-        expected=run.expected,
-        stop_signal=run.stop_signal,
-        score_from_s=p.scenario.score_from_s,
-        expect_flags=p.scenario.expect_flags,
     )

@@ -161,9 +161,12 @@ class Link:
         self.port = port
         self.timeout_s = timeout_s
         # Every seq sent, with its request's type: a reply's CRC covers that type, so a
-        # reply is accepted only as the answer to the request it was made for.
-        self._sent_types: dict[int, int] = {}
-        self.decoder = framing.StreamDecoder(answers=lambda seq: self._sent_types.get(seq, 0))
+        # reply is accepted only as the answer to the request it was made for. One byte per
+        # seq (0: never sent), so a long run's link takes no more memory than a short one's.
+        self._sent_types = bytearray(_LAST_SEQ + 1)
+        self.decoder = framing.StreamDecoder(
+            answers=lambda seq: self._sent_types[seq] if seq <= _LAST_SEQ else 0
+        )
         self.info: BoardInfo | None = None
         self._seq = _FIRST_SEQ
         self._inbox: deque[tuple[framing.Frame, float]] = deque()

@@ -261,7 +261,6 @@ def estimator_costs(
     Each row has the spec's budget for its mode and whether the median keeps it, and with
     `sizes` the flash and RAM the estimator adds to the image (footprint)."""
     from vehil import runner
-    from vehil.compare import evaluate, series_from_run
 
     assert link.info is not None
     on_board = {e.name: e for e in link.info.estimators}
@@ -291,7 +290,7 @@ def estimator_costs(
                 row["error"] = run.error
                 rows.append(row)
                 continue
-            fig = evaluate(series_from_run(run))
+            fig = run.figures
             request, reply = frame_bytes(spec)
             compute_s = (fig.cycles["max"] or 0) / F_CPU
             rates = {}

@@ -20,6 +20,7 @@ import contextlib
 import json
 import platform
 import sys
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 from importlib import metadata
 from pathlib import Path
@@ -47,13 +48,18 @@ def host_versions() -> dict[str, str]:
     return versions
 
 
-def columns(inputs: list[str], outputs: list[str], with_truth: list[str]) -> pa.Schema:
+def columns(
+    inputs: list[str], outputs: list[str], with_truth: list[str], plant: Sequence[str] = ()
+) -> pa.Schema:
+    """`plant`: a closed loop's measured signals, kept as `plant.<name>` (its trajectory
+    is made with the board's outputs: the recording is its only record)."""
     f64 = pa.float64()
     fields = [pa.field("k", pa.int32()), pa.field("t", f64)]
     fields += [pa.field(f"in.{n}", f64) for n in inputs]
     fields += [pa.field(f"truth.{n}", f64) for n in with_truth]
     fields += [pa.field(f"ref.{n}", f64) for n in outputs]
     fields += [pa.field(f"board.{n}", f64) for n in outputs]
+    fields += [pa.field(f"plant.{n}", f64) for n in plant]
     fields += [
         pa.field("status", pa.uint8()),
         pa.field("cycles", pa.uint32()),
@@ -66,8 +72,15 @@ def columns(inputs: list[str], outputs: list[str], with_truth: list[str]) -> pa.
 class Recorder:
     """Appends rows; flushes a batch every BATCH_ROWS rows; `close(end)` seals the file."""
 
-    def __init__(self, path: Path, schema: pa.Schema, header: dict[str, Any]):
+    def __init__(
+        self,
+        path: Path,
+        schema: pa.Schema,
+        header: dict[str, Any],
+        on_batch: Callable[[dict[str, np.ndarray]], None] | None = None,
+    ):
         self.path = path
+        self.on_batch = on_batch  # sees each batch's columns as it is written
         path.parent.mkdir(parents=True, exist_ok=True)
         header = {"format": FORMAT, "host": host_versions(), **header}
         self.schema = schema.with_metadata({"vehil": json.dumps(header, default=_jsonable)})
@@ -87,8 +100,11 @@ class Recorder:
     def flush(self) -> None:
         n = len(self._rows["k"])
         if n:
-            self._writer.write_batch(pa.record_batch(self._rows, schema=self.schema))
+            batch = pa.record_batch(self._rows, schema=self.schema)
+            self._writer.write_batch(batch)
             self.rows_written += n
+            if self.on_batch is not None:
+                self.on_batch(_columns(batch))
             self._sink.flush()
             for values in self._rows.values():
                 values.clear()
@@ -145,38 +161,70 @@ class Recording:
         return None
 
 
-def read(path: Path) -> Recording:
-    try:
-        reader = ipc.open_stream(pa.OSFile(str(path), "rb"))
-    except (OSError, pa.ArrowInvalid) as exc:
-        raise RecordingError(f"{path}: not a vehil recording ({exc})") from None
-    meta = reader.schema.metadata or {}
-    if b"vehil" not in meta:
-        raise RecordingError(f"{path}: an Arrow stream, but without vehil's header")
-    header = json.loads(meta[b"vehil"])
-    if header.get("format") != FORMAT:
-        raise RecordingError(f"{path}: format {header.get('format')!r}, this vehil reads {FORMAT}")
-    batches: list[pa.RecordBatch] = []
-    end: dict[str, Any] | None = None
-    truncated: str | None = None
-    while True:
+def _columns(batch: pa.RecordBatch) -> dict[str, np.ndarray]:
+    return {name: batch.column(name).to_numpy(zero_copy_only=False) for name in batch.schema.names}
+
+
+class Reader:
+    """A recording's header, then its batches one at a time: a run of any length is read
+    in the memory of one batch. After the batches, `end` and `truncated` say how it ended."""
+
+    def __init__(self, path: Path):
+        self.path = Path(path)
         try:
-            batch, custom = reader.read_next_batch_with_custom_metadata()
-        except StopIteration:
-            break
-        except (pa.ArrowInvalid, OSError) as exc:
-            truncated = (
-                f"the file is cut short after {sum(len(b) for b in batches)} samples ({exc})"
+            self._reader = ipc.open_stream(pa.OSFile(str(path), "rb"))
+        except (OSError, pa.ArrowInvalid) as exc:
+            raise RecordingError(f"{path}: not a vehil recording ({exc})") from None
+        meta = self._reader.schema.metadata or {}
+        if b"vehil" not in meta:
+            raise RecordingError(f"{path}: an Arrow stream, but without vehil's header")
+        self.header: dict[str, Any] = json.loads(meta[b"vehil"])
+        if self.header.get("format") != FORMAT:
+            raise RecordingError(
+                f"{path}: format {self.header.get('format')!r}, this vehil reads {FORMAT}"
             )
-            break
-        batches.append(batch)
-        if custom and b"end" in custom:
-            end = json.loads(custom[b"end"])
-    if end is None and truncated is None:
-        truncated = "the run did not finish writing (no end record)"
-    table = pa.Table.from_batches(batches, schema=reader.schema)
+        self.schema = self._reader.schema
+        self.units = {
+            s["name"]: s["unit"]
+            for part in ("inputs", "outputs")
+            for s in self.header["estimator"][part]
+        }
+        self.end: dict[str, Any] | None = None
+        self.truncated: str | None = None
+        self.rows = 0
+
+    def batches(self) -> Iterator[pa.RecordBatch]:
+        while True:
+            try:
+                batch, custom = self._reader.read_next_batch_with_custom_metadata()
+            except StopIteration:
+                break
+            except (pa.ArrowInvalid, OSError) as exc:
+                self.truncated = f"the file is cut short after {self.rows} samples ({exc})"
+                break
+            if custom and b"end" in custom:
+                self.end = json.loads(custom[b"end"])
+            self.rows += len(batch)
+            yield batch
+        if self.end is None and self.truncated is None:
+            self.truncated = "the run did not finish writing (no end record)"
+
+    def columns(self) -> Iterator[dict[str, np.ndarray]]:
+        """Each non-empty batch's columns as numpy arrays."""
+        for batch in self.batches():
+            if len(batch):
+                yield _columns(batch)
+
+
+def read(path: Path, every: int = 1) -> Recording:
+    """The whole recording; `every` > 1 keeps every that many samples (for a plot)."""
+    reader = Reader(path)
+    kept: list[pa.RecordBatch] = []
+    for batch in reader.batches():
+        if every > 1:
+            first = -(reader.rows - len(batch)) % every
+            batch = batch.take(pa.array(np.arange(first, len(batch), every)))
+        kept.append(batch)
+    table = pa.Table.from_batches(kept, schema=reader.schema)
     data = {name: table.column(name).to_numpy() for name in table.column_names}
-    units = {
-        s["name"]: s["unit"] for part in ("inputs", "outputs") for s in header["estimator"][part]
-    }
-    return Recording(Path(path), header, data, end, truncated, units)
+    return Recording(Path(path), reader.header, data, reader.end, reader.truncated, reader.units)

@@ -6,6 +6,7 @@ import json
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 from rich.markup import escape
 from rich.table import Table
 
@@ -93,7 +94,9 @@ def _tolerance(tol: Tolerance, ref: str) -> str:
     return f"{tol.abs:g} + {tol.rel:g}·{ref}{since}"
 
 
-def _plots(s: Series, out: Path) -> list[tuple[str, str]]:
+def _plots(s: Series, out: Path, every: int = 1) -> list[tuple[str, str]]:
+    """`every`: the series keeps every that many samples of the run (a long run's plots
+    are drawn from a bounded number of points; histograms count each kept one that often)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -143,7 +146,7 @@ def _plots(s: Series, out: Path) -> list[tuple[str, str]]:
         if not len(data):
             continue
         fig, ax = plt.subplots(figsize=(7, 3.5))
-        ax.hist(data, bins=60, color="tab:purple")
+        ax.hist(data, bins=60, color="tab:purple", weights=np.full(len(data), every))
         ax.set_xlabel(xlabel)
         ax.set_ylabel("samples")
         ax.set_title(what)
@@ -155,12 +158,55 @@ def _plots(s: Series, out: Path) -> list[tuple[str, str]]:
     return made
 
 
-def write(s: Series, figures: Figures, context: dict[str, Any], out: Path) -> Path:
+PLOT_POINTS = 20_000  # samples a run's plots are drawn from, at most
+
+
+def _firmware(info: dict[str, Any]) -> str | None:
+    """The build id as INFO and the recording give it, `+dirty` included."""
+    if info.get("build_id") is None:
+        return None
+    return f"{info['build_id']:08x}{'+dirty' if info.get('build_dirty') else ''}"
+
+
+def run_context(run: Any, title: str, input_note: str | None = None) -> dict[str, Any]:
+    """What report.md and figures.json say of a vehil.runner.Run beside its figures."""
+    sc = run.scenario
+    return {
+        "title": title,
+        "scenario": sc.name,
+        "board": run.board,
+        "mode": sc.mode,
+        "firmware": _firmware(run.info),
+        "input": input_note,
+        "ended": run.ended,
+        "error": run.error,
+        "wall_s": round(run.wall_s, 3),
+        "samples_per_s": round(run.done / run.wall_s if run.wall_s else 0.0, 1),
+        "recording": str(run.recording) if run.recording else None,
+        "log_inputs": run.context.get("log_inputs"),
+        "log_notes": run.context.get("log_notes"),
+        "board_resets": [
+            {"at_sample": r.at_sample, "recovery_s": round(r.recovery_s, 3)} for r in run.resumes
+        ],
+    }
+
+
+def write_run(run: Any, context: dict[str, Any]) -> Path:
+    """A recorded run's report beside its recording, its plots from every n-th sample."""
+    from vehil.compare import series_from_recording
+    from vehil.record import read
+
+    every = max(1, -(-run.figures.samples // PLOT_POINTS))
+    s = series_from_recording(read(run.recording, every=every))
+    return write(s, run.figures, context, run.recording.parent, every)
+
+
+def write(s: Series, figures: Figures, context: dict[str, Any], out: Path, every: int = 1) -> Path:
     """report.md, figures.json and PNGs into `out`; returns the Markdown file."""
     out.mkdir(parents=True, exist_ok=True)
     data = {**context, **figures.to_json()}
     (out / "figures.json").write_text(json.dumps(data, indent=2, default=str))
-    plots = _plots(s, out)
+    plots = _plots(s, out, every)
     lines = [f"# {context.get('title', 'vehil run')}", ""]
     for k in (
         "scenario",

@@ -1,21 +1,20 @@
 """The scenario runner: a drive, sample by sample, through an estimator on a board.
 
-Data flows one way: source (plant or log) -> float64 reference -> link -> board
--> recording. Two pacings:
-- lockstep: as fast as the board answers, with the board's RX window kept full;
-- real time: one sample per sample time by the host clock, stop-and-wait like an
-  ECU's task; a result that comes back after the next sample is due is late.
-Ctrl-C, a board that stops answering, or a link error end the run cleanly: the
-recording keeps every sample up to that point and says how the run ended.
+Data flows one way: source (plant or log, vehil.source) -> float64 reference -> link
+-> board (vehil.session) -> recording and running metrics (Sink). Each piece holds a
+chunk at a time, so a run's memory does not grow with its length. Ctrl-C, a board that
+stops answering, or a link error end the run cleanly: the recording keeps every sample
+up to that point and says how the run ended.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import functools
 import re
 import signal
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
@@ -26,14 +25,14 @@ from rich.console import Console
 from rich.progress import BarColumn, Progress, ProgressColumn, Task, TextColumn, TimeRemainingColumn
 from rich.text import Text
 
-from vehil import plants, record
+from vehil import compare, record, session, source
 from vehil.boards import Board, BoardOptions, make_board, open_board
-from vehil.errors import BoardError, BoardReset, BoardStartError, LinkError, VehilError
-from vehil.link import BoardInfo, Link, Reply
-from vehil.logs import trace_from_log
+from vehil.errors import BoardStartError, LinkError, VehilError
+from vehil.link import BoardInfo, Reply
 from vehil.paths import runs_dir
 from vehil.plants.base import Trace
-from vehil.scenario import Scenario, ScenarioError
+from vehil.scenario import Scenario
+from vehil.session import Resume
 from vehil.terminal import make_console
 
 
@@ -56,66 +55,83 @@ class Prepared:
 
 @dataclass
 class Run:
-    """A run's results; `ended` is completed, interrupted or failed (with `error`)."""
+    """A run: how it ended (completed, interrupted or failed, with `error`), its figures
+    and verdict (computed as it went), and its recording. The per-sample arrays are read
+    back from the recording when asked for (`board_out`, `cycles`...): a run never holds
+    them itself."""
 
-    prepared: Prepared
+    scenario: Scenario
     board: str
     realtime: bool
-    board_out: np.ndarray
-    status: np.ndarray
-    cycles: np.ndarray
-    rtt_s: np.ndarray
-    late: np.ndarray
+    done: int  # samples answered
+    figures: compare.Figures
     ended: str
     error: str | None
     wall_s: float
+    recording: Path | None  # None: the board never answered, nothing was recorded
     info: dict[str, Any] = field(default_factory=dict)
-    recording: Path | None = None
-    native_out: np.ndarray | None = None  # FIXED with bit_exact: the native build's outputs
+    context: dict[str, Any] = field(default_factory=dict)  # the source's: a log's timing
     resumes: list[Resume] = field(default_factory=list)  # board resets survived
     stack_bytes: int | None = None  # the board's stack high-water since boot, after the run
     expected: int | None = None  # samples the run was to have
     stop_signal: int | None = None  # the signal that interrupted it (SIGINT: Ctrl-C)
 
+    @functools.cached_property
+    def recorded(self) -> record.Recording:
+        if self.recording is None:
+            raise VehilError(f"{self.scenario.name}: the run recorded nothing ({self.error})")
+        return record.read(self.recording)
+
     @property
-    def done(self) -> int:
-        return len(self.board_out)
+    def board_out(self) -> np.ndarray:
+        return self.series().board
+
+    @property
+    def cycles(self) -> np.ndarray:
+        return self.series().cycles
+
+    @property
+    def status(self) -> np.ndarray:
+        return self.series().status
+
+    def series(self) -> compare.Series:
+        return compare.series_from_recording(self.recorded)
+
+    @functools.cached_property
+    def prepared(self) -> Prepared:
+        """The drive and reference of the samples done: an open loop's made again whole
+        (every plant signal and truth), a closed loop's as recorded."""
+        if not self.scenario.closed_loop:
+            p = prepare(self.scenario)
+            n = self.done
+            trace = Trace(
+                t=p.trace.t[:n],
+                signals={k: v[:n] for k, v in p.trace.signals.items()},
+                truth={k: v[:n] for k, v in p.trace.truth.items()},
+                units=p.trace.units,
+            )
+            return Prepared(self.scenario, trace, p.inputs[:n], p.reference[:n])
+        d = self.recorded.data
+        spec = self.scenario.estimator
+        trace = Trace(
+            t=d["t"],
+            signals={c[6:]: v for c, v in d.items() if c.startswith("plant.")},
+            truth={c[6:]: v for c, v in d.items() if c.startswith("truth.")},
+        )
+        n = len(d["t"])
+        cols = [d[f"in.{s.name}"] for s in spec.inputs]
+        inputs = np.column_stack(cols) if cols else np.empty((n, 0))
+        reference = np.column_stack([d[f"ref.{s.name}"] for s in spec.outputs])
+        return Prepared(self.scenario, trace, inputs, reference)
 
 
 def prepare(scenario: Scenario) -> Prepared:
-    spec = scenario.estimator
-    if scenario.plant is not None:
-        plant = plants.get(scenario.plant)
-        trace = plant.run(
-            scenario.plant_params, scenario.duration, scenario.sample_time, scenario.seed
-        )
-    else:
-        assert scenario.log is not None
-        trace = trace_from_log(scenario.log, spec, scenario.sample_time, scenario.duration)
-    if spec.delay:
-        # A windowed estimate is for the window's centre: compare it with the truth there.
-        d = spec.delay
-        trace.truth = {n: np.concatenate([v[:1].repeat(d), v[:-d]]) for n, v in trace.truth.items()}
-    columns = []
-    for s in spec.inputs:
-        source = scenario.signals.get(s.name, s.name)
-        if source not in trace.signals:
-            raise ScenarioError(
-                f"{scenario.path}: {spec.name} needs input {s.name!r} but the source gives "
-                f"{', '.join(trace.signals)}; map it in [signals]"
-            )
-        x = np.asarray(trace.signals[source], dtype=np.float64)
-        bad = np.flatnonzero(~np.isfinite(x))
-        if len(bad):
-            raise ScenarioError(
-                f"{scenario.path}: input {s.name!r} is NaN/inf at sample {bad[0]} "
-                f"(t = {trace.t[bad[0]]:g} s)"
-            )
-        columns.append(x)
-    inputs = np.column_stack(columns) if columns else np.empty((len(trace), 0))
-    ref = spec.reference(scenario.params)
-    reference = np.array([ref.step(u) for u in inputs]).reshape(len(inputs), len(spec.outputs))
-    return Prepared(scenario, trace, inputs, reference)
+    """An open-loop scenario's whole drive (every signal and truth) and reference, held in
+    memory: for analyses that want the arrays (a run streams them instead)."""
+    drive = source.Drive(scenario, chunk=1 << 62)
+    chunk = next(drive.chunks())
+    assert chunk.trace is not None
+    return Prepared(scenario, chunk.trace, chunk.inputs, chunk.reference)
 
 
 class _RateColumn(ProgressColumn):
@@ -137,205 +153,29 @@ def _progress(console: Console) -> Progress:
     )
 
 
-class _Drive:
-    """An open-loop source: the whole drive and its reference are known before the run."""
+def native_mismatches(scenario: Scenario, recording: Path, samples: int) -> dict[str, int]:
+    """Per output, how many of a recording's first `samples` board outputs differ in their
+    bits from the native build's on the same scenario (a closed loop is rerun whole: it is
+    deterministic too). Streams both: memory stays that of one batch."""
+    names = [s.name for s in scenario.estimator.outputs]
+    counts = dict.fromkeys(names, 0)
+    recorded = (
+        np.column_stack([c[f"board.{n}"] for n in names])
+        for c in record.Reader(recording).columns()
+    )
+    batch, i = np.empty((0, len(names))), 0
 
-    closed = False
+    def compare(k: int, reply: Reply, late: bool, out: np.ndarray) -> None:
+        nonlocal batch, i
+        if i == len(batch):
+            batch, i = next(recorded), 0
+        for j, n in enumerate(names):
+            counts[n] += int(out[j] != batch[i, j])
+        i += 1
 
-    def __init__(self, prepared: Prepared):
-        self.p = prepared
-        self.total = len(prepared.inputs)
-
-    def inputs(self, start: int = 0) -> Iterator[np.ndarray]:
-        yield from self.p.inputs[start:]
-
-    def after(self, k: int, out: np.ndarray) -> None:
-        """Nothing acts back on a recorded or precomputed drive."""
-
-    def row(self, k: int) -> tuple[float, np.ndarray, np.ndarray, dict[str, float]]:
-        truth = {n: float(v[k]) for n, v in self.p.trace.truth.items()}
-        return float(self.p.trace.t[k]), self.p.inputs[k], self.p.reference[k], truth
-
-    def prepared(self) -> Prepared:
-        return self.p
-
-
-class _Loop:
-    """A closed loop: the plant is stepped with the board's outputs. The float64 reference
-    runs on the same measurements the board got, so their difference is numeric error
-    alone, not two trajectories drifting apart."""
-
-    closed = True
-
-    def __init__(self, scenario: Scenario):
-        self.sc = scenario
-        spec = plants.get(scenario.plant or "")
-        self.plant = spec.start_loop(scenario.plant_params, scenario.sample_time, scenario.seed)
-        self.feedback = spec.feedback
-        self.reference = scenario.estimator.reference(scenario.params)
-        self.total = scenario.samples
-        self.t: list[float] = []
-        self.u: list[np.ndarray] = []
-        self.ref: list[np.ndarray] = []
-        self.truth: list[dict[str, float]] = []
-        self.signals: list[dict[str, float]] = []
-        self.outputs = [s.name for s in scenario.estimator.outputs]
-
-    def inputs(self, start: int = 0) -> Iterator[np.ndarray]:
-        """From sample `start`: ones measured already (sent, never answered) come again."""
-        spec = self.sc.estimator
-        yield from self.u[start:]
-        for k in range(len(self.u), self.total):
-            t, signals, truth = self.plant.measure()
-            u = np.array([signals[self.sc.signals.get(s.name, s.name)] for s in spec.inputs])
-            if not np.all(np.isfinite(u)):
-                raise ScenarioError(f"{self.sc.path}: the plant measured NaN/inf at sample {k}")
-            self.t.append(t)
-            self.u.append(u)
-            self.signals.append(signals)
-            self.truth.append(truth)
-            self.ref.append(np.asarray(self.reference.step(u), dtype=np.float64))
-            yield u
-
-    def after(self, k: int, out: np.ndarray) -> None:
-        self.plant.apply({n: float(out[self.outputs.index(n)]) for n in self.feedback})
-
-    def row(self, k: int) -> tuple[float, np.ndarray, np.ndarray, dict[str, float]]:
-        return self.t[k], self.u[k], self.ref[k], self.truth[k]
-
-    def prepared(self) -> Prepared:
-        n = len(self.ref)
-        names = self.truth[0].keys() if self.truth else ()
-        trace = Trace(
-            t=np.array(self.t[:n]),
-            signals={k: np.array([s[k] for s in self.signals[:n]]) for k in self.signals[0]}
-            if self.signals
-            else {},
-            truth={k: np.array([tr[k] for tr in self.truth[:n]]) for k in names},
-        )
-        m = len(self.outputs)
-        inputs = np.array(self.u[:n]).reshape(n, len(self.sc.estimator.inputs))
-        return Prepared(self.sc, trace, inputs, np.array(self.ref[:n]).reshape(n, m))
-
-
-def _source(scenario: Scenario) -> _Drive | _Loop:
-    return _Loop(scenario) if scenario.closed_loop else _Drive(prepare(scenario))
-
-
-def _stream(
-    link: Link,
-    source: _Drive | _Loop,
-    sc: Scenario,
-    realtime: bool,
-    window: int | None,
-    start: int = 0,
-) -> Iterator[tuple[int, Reply, bool, np.ndarray]]:
-    """(k, reply, late, outputs) for each sample from `start`, in order. Lockstep open-loop
-    runs keep the board's window full; real-time and closed-loop runs go one at a time."""
-    spec, mode = sc.estimator, sc.mode
-    frames = (spec.encode_inputs(u, mode) for u in source.inputs(start))
-    if not realtime and not source.closed:
-        requests = (("SAMPLE", {"inputs": body}) for body in frames)
-        for k, reply in enumerate(link.pipeline(requests, window=window), start):
-            yield k, reply, False, spec.decode_outputs(reply.fields()["outputs"], mode)
-        return
-    T = sc.sample_time
-    t0 = time.perf_counter()
-    for k, body in enumerate(frames, start):
-        due = t0 + k * T
-        while realtime and (wait := due - time.perf_counter()) > 0:
-            time.sleep(min(wait, 0.002) if wait > 0.003 else 0)
-        reply = link.request("SAMPLE", inputs=body)
-        out = spec.decode_outputs(reply.fields()["outputs"], mode)
-        source.after(k, out)
-        yield k, reply, realtime and reply.sent_at + reply.rtt_s > due + T, out
-
-
-@dataclass(frozen=True)
-class Resume:
-    """A board reset mid-run, and the run taken up again after it."""
-
-    at_sample: int
-    recovery_s: float
-    reason: str
-
-
-MAX_RESUMES = 3
-
-
-def _configure(link: Link, sc: Scenario) -> None:
-    spec = sc.estimator
-    try:
-        link.configure(spec.name, sc.mode, spec.encode_params(sc.params, sc.mode))
-    except BoardError as exc:
-        if exc.code != "BAD_PARAM" or not 0 <= exc.detail < len(spec.params):
-            raise
-        # The scenario range-checked every value, so the board refuses this one in this
-        # numeric mode or together with the others: name it, and where the rules are.
-        p = spec.params[exc.detail]
-        raise BoardError(
-            f"board refused CONFIG: BAD_PARAM (parameter {exc.detail}, {p.name} = "
-            f"{sc.params[p.name]:g} {p.unit}, is in [{p.lo:g}, {p.hi:g}] but {spec.name} in "
-            f"{sc.mode} refuses it with these parameters; what each mode takes: "
-            f"firmware/lib/estimators/{spec.name}.h)",
-            exc.code,
-            exc.request,
-            exc.detail,
-        ) from None
-
-
-def _catch_up(link: Link, source: _Drive | _Loop, sc: Scenario, answers: list[bytes]) -> None:
-    """A board that rebooted gets the estimator configured again and every sample it had
-    answered; each answer must repeat the one it gave before, bit for bit."""
-    spec = sc.estimator
-    link.hello()
-    _configure(link, sc)
-    frames = (spec.encode_inputs(source.row(k)[1], sc.mode) for k in range(len(answers)))
-    replies = link.pipeline(("SAMPLE", {"inputs": body}) for body in frames)
-    for k, (reply, before) in enumerate(zip(replies, answers, strict=True)):
-        if reply.fields()["outputs"] != before:
-            raise VehilError(
-                f"the board rebooted and, given samples 0..{len(answers) - 1} again, answered "
-                f"sample {k} differently: it cannot be resumed (non-deterministic estimator?)"
-            )
-
-
-def _on_link(
-    link: Link,
-    source: _Drive | _Loop,
-    sc: Scenario,
-    *,
-    realtime: bool = False,
-    window: int | None = None,
-    on_sample: Callable[[int, Reply, bool, np.ndarray], None] | None = None,
-    resumes: list[Resume] | None = None,
-) -> None:
-    """Streams the scenario. With `resumes`, a board reset in a lockstep run is survived:
-    the board catches up from configuration (see _catch_up) and the run goes on."""
-    _configure(link, sc)
-    answers: list[bytes] = []  # each sample's outputs as on the wire
-    while True:
-        try:
-            for k, reply, late, out in _stream(link, source, sc, realtime, window, len(answers)):
-                answers.append(reply.fields()["outputs"])
-                if on_sample is not None:
-                    on_sample(k, reply, late, out)
-            return
-        except BoardReset as exc:
-            if resumes is None or realtime or len(resumes) >= MAX_RESUMES:
-                raise
-            started = time.perf_counter()
-            _catch_up(link, source, sc, answers)
-            resumes.append(Resume(len(answers), time.perf_counter() - started, str(exc)))
-
-
-def native_outputs(scenario: Scenario) -> np.ndarray:
-    """The same scenario through the native build: the bits a FIXED board must match.
-    A closed loop is deterministic too, so it is rerun whole."""
-    outs: list[np.ndarray] = []
     with open_board("native") as link:
-        _on_link(link, _source(scenario), scenario, on_sample=lambda k, r, late, o: outs.append(o))
-    return np.array(outs).reshape(len(outs), len(scenario.estimator.outputs))
+        session.drive(link, source.open_source(scenario, samples), scenario, on_sample=compare)
+    return counts
 
 
 def default_recording_path(scenario: Scenario, board: str, root: Path | None = None) -> Path:
@@ -379,6 +219,66 @@ def _header(
     }
 
 
+class Sink:
+    """Each answered sample into the recording, and from the recording's batches into the
+    running metrics: what is judged is what was recorded."""
+
+    def __init__(self, scenario: Scenario, src: source.Source, path: Path, header: dict[str, Any]):
+        spec = scenario.estimator
+        self.inputs = [s.name for s in spec.inputs]
+        self.outputs = [s.name for s in spec.outputs]
+        truth = src.plant_truth or src.truth_names
+        units = {s.name: s.unit for s in (*spec.inputs, *spec.outputs)}
+        self.metrics = compare.Metrics(
+            self.outputs,
+            units,
+            dict(scenario.tolerances),
+            src.truth_names,
+            scenario.score_from_s,
+            scenario.expect_flags,
+        )
+        schema = record.columns(self.inputs, self.outputs, truth, src.plant_signals)
+        self.recorder = record.Recorder(path, schema, header, self.metrics.add_columns)
+        self.source = src
+
+    def sample(self, k: int, reply: Reply, late: bool, out: np.ndarray) -> None:
+        f = reply.fields()
+        chunk, i = self.source.at(k)
+        row: dict[str, Any] = {
+            "k": k,
+            "t": float(chunk.t[i]),
+            "status": f["status"],
+            "cycles": f["cycles"],
+            "rtt_s": reply.rtt_s,
+            "late": late,
+        }
+        for j, n in enumerate(self.inputs):
+            row[f"in.{n}"] = float(chunk.inputs[i, j])
+        for j, n in enumerate(self.outputs):
+            row[f"ref.{n}"] = float(chunk.reference[i, j])
+            row[f"board.{n}"] = float(out[j])
+        for n, v in chunk.truth.items():
+            row[f"truth.{n}"] = float(v[i])
+        if self.source.plant_signals and chunk.trace is not None:
+            for n in self.source.plant_signals:
+                row[f"plant.{n}"] = float(chunk.trace.signals[n][i])
+        self.recorder.append(row)
+
+    def history(self, answered: int) -> Iterator[tuple[np.ndarray, np.ndarray]]:
+        """The first `answered` samples' inputs and board outputs, read back from the file."""
+        self.recorder.flush()
+        left = answered
+        for c in record.Reader(self.recorder.path).columns():
+            take = min(left, len(c["k"]))
+            cols = [c[f"in.{n}"][:take] for n in self.inputs]
+            ins = np.column_stack(cols) if cols else np.empty((take, 0))
+            outs = np.column_stack([c[f"board.{n}"][:take] for n in self.outputs])
+            yield ins, outs
+            left -= take
+            if not left:
+                return
+
+
 def run(
     scenario: Scenario,
     board: str | Board = "simavr",
@@ -393,82 +293,47 @@ def run(
     the returned Run says how it ended, and the recording holds what was done. A board
     that cannot be started raises BoardStartError: there was no run."""
     console = console or make_console(stderr=True)
-    source = _source(scenario)
-    spec = scenario.estimator
-    n_out = len(spec.outputs)
+    src = source.open_source(scenario)
     options = BoardOptions(timeout_s=timeout_s)
     target = board if isinstance(board, Board) else make_board(board, options)
     board_name = board if isinstance(board, str) else target.name
-    needs_native = scenario.mode == "FIXED" and any(
-        t.bit_exact for t in scenario.tolerances.values()
-    )
-    native = native_outputs(scenario) if needs_native and board_name != "native" else None
-    names = [s.name for s in spec.outputs]
-    if source.closed:
-        plant_truth = {s.name for s in plants.get(scenario.plant or "").truth}
-        truth_names = [n for n in names if n in plant_truth]
-    else:
-        truth_names = list(source.prepared().truth())
-    outs: list[np.ndarray] = []
-    status: list[int] = []
-    cycles: list[int] = []
-    rtt: list[float] = []
-    late: list[bool] = []
+    path = recording or default_recording_path(scenario, board_name)
     resumes: list[Resume] = []
     stack_bytes: int | None = None
     ended, error, stop_signal = "completed", None, None
-    recorder: record.Recorder | None = None
+    sink: Sink | None = None
     info: dict[str, Any] = {}
+    done = 0
     started = time.perf_counter()
     try:
         with target.session() as link:
             assert link.info is not None
             info = link.info.fields
-            path = recording or default_recording_path(scenario, board_name)
-            schema = record.columns([s.name for s in spec.inputs], names, truth_names)
-            header = _header(scenario, board_name, realtime, link.info, source.total)
-            recorder = record.Recorder(path, schema, header)
+            header = _header(scenario, board_name, realtime, link.info, src.total)
+            sink = Sink(scenario, src, path, header)
             with _progress(console) as progress:
                 task = progress.add_task(
-                    f"{scenario.name} on {board_name}", total=source.total, err=""
+                    f"{scenario.name} on {board_name}", total=src.total, err=""
                 )
 
-                def on_sample(k: int, reply: Reply, is_late: bool, out: np.ndarray) -> None:
-                    f = reply.fields()
-                    outs.append(out)
-                    status.append(f["status"])
-                    cycles.append(f["cycles"])
-                    rtt.append(reply.rtt_s)
-                    late.append(is_late)
-                    t, u, ref, truth = source.row(k)
-                    row: dict[str, Any] = {
-                        "k": k,
-                        "t": t,
-                        "status": f["status"],
-                        "cycles": f["cycles"],
-                        "rtt_s": reply.rtt_s,
-                        "late": is_late,
-                    }
-                    for j, s in enumerate(spec.inputs):
-                        row[f"in.{s.name}"] = float(u[j])
-                    for j, n in enumerate(names):
-                        row[f"ref.{n}"] = float(ref[j])
-                        row[f"board.{n}"] = float(out[j])
-                        if n in truth:
-                            row[f"truth.{n}"] = truth[n]
-                    assert recorder is not None
-                    recorder.append(row)
-                    if k % 64 == 0 or k == source.total - 1:
-                        err = np.max(np.abs(out - ref)) if n_out else 0.0
+                def on_sample(k: int, reply: Reply, late: bool, out: np.ndarray) -> None:
+                    nonlocal done
+                    assert sink is not None
+                    sink.sample(k, reply, late, out)
+                    done = k + 1
+                    if k % 64 == 0 or k == src.total - 1:
+                        chunk, i = src.at(k)
+                        err = np.max(np.abs(out - chunk.reference[i])) if len(out) else 0.0
                         progress.update(task, completed=k + 1, err=f"|board-ref| {err:.3g}")
 
-                _on_link(
+                session.drive(
                     link,
-                    source,
+                    src,
                     scenario,
                     realtime=realtime,
                     window=window,
                     on_sample=on_sample,
+                    history=sink.history,
                     resumes=resumes,
                 )
             stats = link.stats()
@@ -479,17 +344,17 @@ def run(
         by = "Ctrl-C" if stop_signal == signal.SIGINT else signal.Signals(stop_signal).name
         ended, error = (
             "interrupted",
-            f"stopped by {by} after {len(outs):,} of {source.total:,} samples",
+            f"stopped by {by} after {done:,} of {src.total:,} samples",
         )
     except VehilError as exc:
-        if recorder is None and isinstance(exc, BoardStartError):
+        if sink is None and isinstance(exc, BoardStartError):
             raise  # no board, no run: an error, not a failed run's report
         lost = "board lost after" if isinstance(exc, LinkError) else "after"
-        ended, error = "failed", f"{lost} {len(outs):,} of {source.total:,} samples: {exc}"
+        ended, error = "failed", f"{lost} {done:,} of {src.total:,} samples: {exc}"
     finally:
         wall = time.perf_counter() - started
-        if recorder is not None:
-            recorder.close(
+        if sink is not None:
+            sink.recorder.close(
                 {
                     "ended": ended,
                     "error": error,
@@ -499,24 +364,41 @@ def run(
                     "signal": stop_signal,
                 }
             )
-    prepared = source.prepared()
+    if sink is None:  # the board never came up: no recording, nothing judged
+        metrics = compare.Metrics(
+            [s.name for s in scenario.estimator.outputs], {}, dict(scenario.tolerances), []
+        )
+    else:
+        metrics = sink.metrics
+    needs_native = scenario.mode == "FIXED" and any(
+        t.bit_exact for t in scenario.tolerances.values()
+    )
+    mismatches = None
+    if needs_native and board_name != "native" and done:
+        mismatches = native_mismatches(scenario, path, done)
+    figures = metrics.figures(
+        ended=ended,
+        error=error,
+        expected=src.total,
+        stop_signal=stop_signal,
+        stack_bytes=stack_bytes,
+        native_board=board_name == "native",
+        mismatches=mismatches,
+    )
     return Run(
-        prepared=prepared,
+        scenario=scenario,
         board=board_name,
         realtime=realtime,
-        board_out=np.array(outs).reshape(len(outs), n_out),
-        status=np.array(status, dtype=np.uint8),
-        cycles=np.array(cycles, dtype=np.int64),
-        rtt_s=np.array(rtt),
-        late=np.array(late, dtype=bool),
+        done=done,
+        figures=figures,
         ended=ended,
         error=error,
         wall_s=wall,
+        recording=path if sink is not None else None,
         info=info,
-        recording=recorder.path if recorder else None,
-        native_out=native,
+        context=src.context,
         resumes=resumes,
         stack_bytes=stack_bytes,
-        expected=source.total,
+        expected=src.total,
         stop_signal=stop_signal,
     )

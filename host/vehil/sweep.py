@@ -21,12 +21,13 @@ from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
-from vehil import plants, runner
+from vehil import campaign, plants, runner
 from vehil.boards import Board
-from vehil.compare import Figures, evaluate, series_from_run
+from vehil.compare import Figures
 from vehil.paths import runs_dir
 from vehil.perturb import Perturbation
 from vehil.protocol.schema import SCHEMA
+from vehil.results import Case
 from vehil.scenario import Scenario, ScenarioError
 
 
@@ -195,9 +196,12 @@ def run(
     seed: int | None = None,
     out: Path | None = None,
     console: Console | None = None,
+    client: Any = None,
 ) -> Sweep:
     """The nominal drive, then `drives` perturbed ones; drive i's plant seed is the
-    scenario's + i, and the draws come from `seed` (the scenario's by default)."""
+    scenario's + i, and the draws come from `seed` (the scenario's by default). With a
+    Dask `client` (vehil.campaign) the drives run on its workers, and their figures
+    are gathered into an Arrow dataset too (results/)."""
     board_name = board if isinstance(board, str) else board.name
     stamp = datetime.now(UTC).strftime("%Y%m%dT%H%M%SZ")
     out = out or runs_dir() / f"sweep-{scenario.name}-{board_name}-{stamp}"
@@ -208,20 +212,63 @@ def run(
             f"({', '.join(found)})"
         )
     rng = np.random.default_rng(scenario.seed if seed is None else seed)
-    quiet = Console(quiet=True)
-    done: list[Drive] = []
-    for i in range(drives + 1):
-        drawn = {} if i == 0 else {n: p.draw(rng) for n, p in found.items()}
-        sc = _drive(scenario, i, scenario.seed + i, drawn, shared)
-        result = runner.run(
-            sc, board, recording=out / f"drive-{i:03d}" / "run.arrow", console=quiet
+    draws: list[dict[str, float]] = [{}] + [
+        {n: p.draw(rng) for n, p in found.items()} for _ in range(drives)
+    ]
+    jobs = [
+        campaign.Job(
+            f"{scenario.name}-{i:03d}",
+            _drive(scenario, i, scenario.seed + i, drawn, shared),
+            out / f"drive-{i:03d}" / "run.arrow",
         )
-        done.append(Drive(i, sc.seed, drawn, evaluate(series_from_run(result))))
+        for i, drawn in enumerate(draws)
+    ]
+
+    def said(i: int, figures: Figures) -> None:
         if console is not None:
-            console.print(
-                escape(f"drive {i}/{drives}: {done[-1].figures.verdict}"), highlight=False
-            )
-    return Sweep(scenario, board_name, found, shared, done[0], done[1:], out)
+            console.print(escape(f"drive {i}/{drives}: {figures.verdict}"), highlight=False)
+
+    if client is None:
+        quiet = Console(quiet=True)
+        figures = []
+        for i, job in enumerate(jobs):
+            result = runner.run(job.scenario, board, recording=job.recording, console=quiet)
+            figures.append(result.figures)
+            said(i, result.figures)
+    else:
+        campaign.check_board(board_name)
+        index = {job.name: i for i, job in enumerate(jobs)}
+        done = campaign.run(client, jobs, lambda d: said(index[d.job.name], d.figures))
+        figures = [d.figures for d in done]
+        extra = [
+            {"seed": j.scenario.seed, **{f"drawn.{k}": v for k, v in draws[i].items()}}
+            for i, j in enumerate(jobs)
+        ]
+        campaign.write_dataset(campaign.rows(done, extra), out / "results")
+    found_drives = [
+        Drive(i, job.scenario.seed, draws[i], f)
+        for i, (job, f) in enumerate(zip(jobs, figures, strict=True))
+    ]
+    return Sweep(scenario, board_name, found, shared, found_drives[0], found_drives[1:], out)
+
+
+def cases(s: Sweep) -> list[Case]:
+    """Each drive as a test case: its figures, seed and drawn parameters."""
+    return [
+        Case(
+            f"{s.scenario.name}-{d.index:03d}",
+            {
+                **d.figures.to_json(),
+                "scenario": s.scenario.name,
+                "board": s.board,
+                "mode": s.scenario.mode,
+                "seed": d.seed,
+                "drawn": d.drawn,
+                "recording": str(s.out / f"drive-{d.index:03d}" / "run.arrow"),
+            },
+        )
+        for d in (s.nominal, *s.drives)
+    ]
 
 
 def _g(x: float | None) -> str:

@@ -46,7 +46,7 @@ class ScenarioResult:
         from vehil.report import summary_table
 
         console = Console(width=160, record=True)
-        console.print(summary_table(self.figures, self.run.prepared.scenario.name))
+        console.print(summary_table(self.figures, self.run.scenario.name))
         why = str(self.figures.verdict)
         raise AssertionError(f"{why} (recording {self.recording})\n{console.export_text()}")
 
@@ -72,7 +72,7 @@ def board(vehil_board_name: str) -> Iterator[Link]:
 @pytest.fixture
 def run_scenario(vehil_board_name: str, tmp_path: Path) -> Callable[..., ScenarioResult]:
     """run_scenario(NAME_OR_PATH_OR_SCENARIO, board=None, duration=None, **run options)."""
-    from vehil import compare, runner, scenario
+    from vehil import runner, scenario
 
     def _run(
         which: Any, board: str | None = None, duration: float | None = None, **options: Any
@@ -83,8 +83,7 @@ def run_scenario(vehil_board_name: str, tmp_path: Path) -> Callable[..., Scenari
         name = board or vehil_board_name
         rec = tmp_path / f"{sc.name}-{name}.arrow"
         result = runner.run(sc, name, recording=rec, console=Console(quiet=True), **options)
-        figures = compare.evaluate(compare.series_from_run(result))
-        return ScenarioResult(result, figures, result.recording)
+        return ScenarioResult(result, result.figures, result.recording)
 
     return _run
 

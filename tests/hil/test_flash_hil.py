@@ -11,7 +11,7 @@ import pytest
 import serial
 from rich.console import Console
 
-from vehil import compare, flash, runner, scenario
+from vehil import flash, runner, scenario
 from vehil.boards import BoardOptions
 from vehil.boards.simavr import SimavrBootloaderBoard
 from vehil.cli import main
@@ -83,7 +83,7 @@ def test_flash_through_the_bootloader_then_the_flashed_firmware_runs_a_scenario(
     board = SimavrBootloaderBoard(BoardOptions(timeout_s=3.0), flash_image=flash_bin)
     run = runner.run(sine, board, recording=tmp_path / "run.arrow", console=Console(quiet=True))
     assert run.error is None and run.done == 1000
-    assert compare.evaluate(compare.series_from_run(run)).passed
+    assert run.figures.passed
 
 
 def test_a_corrupted_image_fails_verification_naming_address_expected_and_got(

@@ -98,12 +98,9 @@ def test_a_recording_keeps_the_scenarios_score_from_s(tmp_path) -> None:  # noqa
     sc = scenario.load("uiiekf3-abs-dry")
     later = dataclasses.replace(sc, score_from_s=1.0)
     run = runner.run(later, "native", recording=tmp_path / "run.arrow")
-    fresh = compare.evaluate(compare.series_from_run(run)).outputs["v"].truth
-    read = compare.evaluate(compare.series_from_recording(record.read(run.recording)))
-    whole = (
-        compare.evaluate(dataclasses.replace(compare.series_from_run(run), score_from_s=0.0))
-        .outputs["v"]
-        .truth
-    )
+    fresh = run.figures.outputs["v"].truth
+    recorded = compare.series_from_recording(record.read(run.recording))
+    read = compare.evaluate(recorded)
+    whole = compare.evaluate(dataclasses.replace(recorded, score_from_s=0.0)).outputs["v"].truth
     assert fresh == read.outputs["v"].truth and fresh.from_s == 1.0
     assert fresh.rmse < whole.rmse and fresh.worst_k >= 100

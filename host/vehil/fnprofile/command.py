@@ -44,7 +44,7 @@ def run_profile(console: Console, session: collect.Session, run: Any) -> None:
         console.print("[yellow]no profile: the run did not complete[/]")
         return
     profile = session.read()
-    sc = run.prepared.scenario
+    sc = run.scenario
     title = f"{sc.name}: {sc.estimator.name} ({sc.mode}) step on {run.board}"
     show(console, profile, title, session.folder, run.cycles)
     report = session.folder.parent / "report.md"

@@ -209,7 +209,7 @@ def _truth_rmse(o: Any) -> float:
 
 
 def board_figures(board: str) -> dict[str, dict[str, float]]:
-    from vehil import compare, runner
+    from vehil import runner
 
     found = {}
     for name, seconds in BOARD_RUNS.items():
@@ -217,7 +217,7 @@ def board_figures(board: str) -> dict[str, dict[str, float]]:
         r = runner.run(sc, board, window=1, console=Console(quiet=True))  # no RX interrupts
         if r.error:
             raise RuntimeError(r.error)
-        figs = compare.evaluate(compare.series_from_run(r))
+        figs = r.figures
         diff = {k: float(v.reference.max_abs or 0.0) for k, v in figs.outputs.items()}
         found[name] = {
             "cycles_median": float(np.median(r.cycles)),

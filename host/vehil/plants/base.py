@@ -12,7 +12,7 @@ runner steps one sample at a time, applying the board's outputs named in
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Protocol
@@ -97,6 +97,9 @@ class PlantSpec:
     loop: Callable[[Mapping[str, Any], float, int], LoopPlant] | None = None  # (params, T, seed)
     feedback: tuple[str, ...] = ()  # estimator outputs the loop plant acts on
     files: tuple[FileInput, ...] = ()  # tables it can read instead of making them
+    # (params, duration, T, seed, chunk): the same drive as `simulate`, chunk by chunk, so
+    # a long one is never held whole
+    stream: Callable[[Mapping[str, Any], float, float, int, int], Iterator[Trace]] | None = None
 
     def param_values(self, given: Mapping[str, Any]) -> dict[str, Any]:
         """Numbers with their defaults, and each file input loaded (None if not given)."""
@@ -118,3 +121,29 @@ class PlantSpec:
         trace = self.simulate(self.param_values(params), duration, T, seed)
         trace.units = {s.name: s.unit for s in (*self.signals, *self.truth)}
         return trace
+
+    def run_chunks(
+        self, params: Mapping[str, Any], duration: float, T: float, seed: int, chunk: int
+    ) -> Iterator[Trace]:
+        """The drive `run` gives, `chunk` samples at a time (a plant with `stream`)."""
+        assert self.stream is not None
+        units = {s.name: s.unit for s in (*self.signals, *self.truth)}
+        for trace in self.stream(self.param_values(params), duration, T, seed, chunk):
+            trace.units = units
+            yield trace
+
+
+def joined(
+    stream: Callable[[Mapping[str, Any], float, float, int, int], Iterator[Trace]],
+) -> Callable[[Mapping[str, Any], float, float, int], Trace]:
+    """A streaming plant's whole drive: its chunks end to end."""
+
+    def simulate(p: Mapping[str, Any], duration: float, T: float, seed: int) -> Trace:
+        pieces = list(stream(p, duration, T, seed, 1 << 16))
+        return Trace(
+            t=np.concatenate([x.t for x in pieces]),
+            signals={n: np.concatenate([x.signals[n] for x in pieces]) for n in pieces[0].signals},
+            truth={n: np.concatenate([x.truth[n] for x in pieces]) for n in pieces[0].truth},
+        )
+
+    return simulate

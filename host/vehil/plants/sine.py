@@ -7,20 +7,27 @@ loop tracks the sine; a board that returned anything else would steer it off.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 
 import numpy as np
 
 from vehil.plants import register
-from vehil.plants.base import PlantSpec, Trace
+from vehil.plants.base import PlantSpec, Trace, joined
 from vehil.spec import Param, Signal
 
 
-def _simulate(p: Mapping[str, float], duration: float, T: float, seed: int) -> Trace:
-    t = np.arange(int(round(duration / T))) * T
-    clean = p["amplitude"] * np.sin(2 * np.pi * p["frequency"] * t) + p["offset"]
-    noise = np.random.default_rng(seed).normal(0.0, p["noise_std"], len(t))
-    return Trace(t=t, signals={"y": clean + noise}, truth={"y": clean})
+def _stream(
+    p: Mapping[str, float], duration: float, T: float, seed: int, chunk: int
+) -> Iterator[Trace]:
+    """The drive in chunks: one noise generator drawn in order gives the same samples as
+    one draw of the whole length."""
+    n = int(round(duration / T))
+    rng = np.random.default_rng(seed)
+    for k0 in range(0, n, chunk):
+        t = np.arange(k0, min(n, k0 + chunk)) * T
+        clean = p["amplitude"] * np.sin(2 * np.pi * p["frequency"] * t) + p["offset"]
+        noise = rng.normal(0.0, p["noise_std"], len(t))
+        yield Trace(t=t, signals={"y": clean + noise}, truth={"y": clean})
 
 
 class _Loop:
@@ -56,7 +63,8 @@ SPEC = register(
         ),
         signals=(Signal("y", "1", doc="measured: sine plus noise"),),
         truth=(Signal("y", "1", doc="the sine without noise"),),
-        simulate=_simulate,
+        simulate=joined(_stream),
+        stream=_stream,
         loop=_Loop,
         feedback=("y",),
     )
