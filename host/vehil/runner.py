@@ -94,6 +94,14 @@ class Run:
     def status(self) -> np.ndarray:
         return self.series().status
 
+    @property
+    def rtt_s(self) -> np.ndarray:
+        return self.series().rtt_s
+
+    @property
+    def late(self) -> np.ndarray:
+        return self.series().late
+
     def series(self) -> compare.Series:
         return compare.series_from_recording(self.recorded)
 

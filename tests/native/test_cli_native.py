@@ -10,6 +10,7 @@ import pytest
 
 from vehil import cli, record
 from vehil.paths import PROJECT_ROOT
+from vehil.report import _firmware
 
 VEHIL = [sys.executable, "-m", "vehil"]
 
@@ -95,11 +96,11 @@ def test_compare_of_runs_with_no_output_in_common_says_so(recorded, tmp_path, ca
 
 
 def test_the_report_keeps_the_firmware_build_as_info_gives_it(recorded) -> None:  # noqa: ANN001
-    assert cli._firmware({"build_id": 0x1234ABCD, "build_dirty": 1}) == "1234abcd+dirty"
-    assert cli._firmware({"build_id": 0x1234ABCD, "build_dirty": 0}) == "1234abcd"
+    assert _firmware({"build_id": 0x1234ABCD, "build_dirty": 1}) == "1234abcd+dirty"
+    assert _firmware({"build_id": 0x1234ABCD, "build_dirty": 0}) == "1234abcd"
     info = record.read(recorded).header["board"]["info"]
     report = (recorded.parent / "report.md").read_text()
-    assert f"- **firmware**: {cli._firmware(info)}\n" in report
+    assert f"- **firmware**: {_firmware(info)}\n" in report
 
 
 def test_runs_that_name_no_folder_stay_out_of_the_checkout(built) -> None:  # noqa: ANN001
