@@ -24,6 +24,7 @@ from rich.console import Console
 from rich.table import Table
 
 from vehil import campaign, scenario, sweep
+from vehil.terminal import make_console
 
 
 def _one(sc: scenario.Scenario, drives: int, workers: int, out: Path) -> dict[str, Any]:
@@ -81,7 +82,7 @@ def main(argv: list[str] | None = None) -> int:
             f"{r['drives_per_s']:.2f}",
             f"{r['drives_per_s'] / base:.2f}x",
         )
-    Console().print(t)
+    make_console().print(t)
     return 0
 
 

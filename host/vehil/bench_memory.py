@@ -23,6 +23,8 @@ from typing import Any
 from rich.console import Console
 from rich.table import Table
 
+from vehil.terminal import make_console
+
 
 def _one(name: str, samples: int, board: str, out: Path) -> dict[str, Any]:
     from vehil import runner, scenario
@@ -82,7 +84,7 @@ def main(argv: list[str] | None = None) -> int:
             "-" if grow is None else f"{grow:.4f} B",
             f"{r['recording_mb']:.0f} MB",
         )
-    Console().print(t)
+    make_console().print(t)
     return 0
 
 
