@@ -130,6 +130,7 @@ def test_ctrl_c_stops_a_run_cleanly_and_keeps_what_was_recorded(tmp_path, built)
         ("s1-dlc80-ekf", "simavr-ev", 0.3),  # seed 001's 7-state filters: not in the default image
         ("s1-dlc80-ekf3", "simavr-ev", 0.3),
         ("s5-dlc100-low-mu-ukf", "simavr-ev", 0.3),
+        ("s1-dlc80-ukf-hifi", "simavr-ev", 0.3),  # an EV the UKF does not know
         ("s2-sine80-ekf", "qemu-ev", 0.3),
         ("s6-sine100-low-mu-ukf", "qemu-ev", 1.0),
     ],
