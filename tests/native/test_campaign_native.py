@@ -15,21 +15,16 @@ import pyarrow.dataset as pds
 import pytest
 
 from vehil import campaign, scenario, sweep
-from vehil.paths import PROJECT_ROOT
 
 VEHIL = [sys.executable, "-m", "vehil"]
 
 
 @pytest.fixture(scope="module")
-def short_sines(built, tmp_path_factory):  # noqa: ANN001, ANN201
+def short_sines(built, tmp_path_factory, write_short_sines):  # noqa: ANN001, ANN201
     """Three 1-s sines (one of them held to a truth bound its noise cannot meet), and a
     baseline: an earlier run of one of them."""
     folder = tmp_path_factory.mktemp("campaign")
-    sine = (PROJECT_ROOT / "scenarios" / "synthetic" / "sine.toml").read_text()
-    short = sine.replace("duration = 20.0", "duration = 1.0")
-    (folder / "sine-a.toml").write_text(short)
-    (folder / "sine-b.toml").write_text(short.replace("seed = 1", "seed = 2"))
-    (folder / "sine-noisy.toml").write_text(short.replace("truth_rms = 0.06", "truth_rms = 0.01"))
+    write_short_sines(folder)
     base = folder / "base"
     argv = [*VEHIL, "run", str(folder / "sine-a.toml"), "--board", "native", "--out", str(base)]
     subprocess.run(argv, check=True, capture_output=True)

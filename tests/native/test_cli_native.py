@@ -120,13 +120,9 @@ def test_runs_that_name_no_folder_stay_out_of_the_checkout(built) -> None:  # no
 def test_several_scenarios_on_two_boards_at_once_give_one_table_and_the_worst_status(
     built,  # noqa: ANN001
     tmp_path,  # noqa: ANN001
+    write_short_sines,  # noqa: ANN001
 ) -> None:
-    sine = (PROJECT_ROOT / "scenarios" / "synthetic" / "sine.toml").read_text()
-    short = sine.replace("duration = 20.0", "duration = 1.0")
-    (tmp_path / "sine-a.toml").write_text(short)
-    (tmp_path / "sine-b.toml").write_text(short.replace("seed = 1", "seed = 2"))
-    # The noise's RMS is 0.05: a truth bound of 0.01 fails every run of it.
-    (tmp_path / "sine-noisy.toml").write_text(short.replace("truth_rms = 0.06", "truth_rms = 0.01"))
+    write_short_sines(tmp_path)
     out = tmp_path / "out"
     argv = [*VEHIL, "run", str(tmp_path / "sine-*.toml"), "--board", "native", "--jobs", "2"]
     proc = subprocess.run([*argv, "--out", str(out), "--json"], capture_output=True, text=True)
