@@ -220,8 +220,11 @@ static uint8_t health_q(const acc_kf_params_q_t *p, acc_kf_q_t *s, int32_t e)
     s->nis_r = fx_add(s->nis_r, fx_mul(p->alpha, 30, fx_sub(e2g, s->nis_r, &hs), 20, 20, &hs), &hs);
     int32_t out_v = s->v < -p->v_guard ? fx_add(s->v, p->v_guard, &hs)
                                        : (s->v > p->v_max ? fx_sub(s->v, p->v_max, &hs) : 0);
-    int32_t var9 = fx_mul(s->p11, 28, INT32_C(9) << 24, 24, 20, &hs); /* 9 P11, Q20 */
-    uint8_t bad = s->nis_r > p->nis_lim || (out_v != 0 && fx_mul(out_v, 20, out_v, 20, 20, &hs) > var9);
+    uint8_t bad = s->nis_r > p->nis_lim;
+    if (out_v != 0) { /* 9 P11 (Q20), needed only off the plausible range */
+        int32_t var9 = fx_mul(s->p11, 28, INT32_C(9) << 24, 24, 20, &hs);
+        bad |= fx_mul(out_v, 20, out_v, 20, 20, &hs) > var9;
+    }
     return bad ? STATUS_DIVERGED : 0u;
 }
 
