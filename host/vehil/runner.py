@@ -84,25 +84,27 @@ class Run:
 
     @property
     def board_out(self) -> np.ndarray:
-        return self.series().board
+        return self.series.board
 
     @property
     def cycles(self) -> np.ndarray:
-        return self.series().cycles
+        return self.series.cycles
 
     @property
     def status(self) -> np.ndarray:
-        return self.series().status
+        return self.series.status
 
     @property
     def rtt_s(self) -> np.ndarray:
-        return self.series().rtt_s
+        return self.series.rtt_s
 
     @property
     def late(self) -> np.ndarray:
-        return self.series().late
+        return self.series.late
 
+    @functools.cached_property
     def series(self) -> compare.Series:
+        """The recording as a Series, built once for all the per-sample properties."""
         return compare.series_from_recording(self.recorded)
 
     @functools.cached_property
