@@ -6,8 +6,10 @@ from __future__ import annotations
 
 import json
 import os
+import socket
 import subprocess
 import sys
+import time
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -105,3 +107,61 @@ def test_a_sweep_on_dask_is_the_sweep_run_here(built) -> None:  # noqa: ANN001
         assert a.figures.verdict == b.figures.verdict
     rows = pds.dataset(there.out / "results").to_table().to_pylist()
     assert [r["drawn.i_w"] for r in rows[1:]] == [d.drawn["i_w"] for d in there.drives]
+
+
+
+@pytest.fixture()
+def running_scheduler(tmp_path):  # noqa: ANN001, ANN201
+    """A Dask cluster started the way a user starts one on a lab machine: `dask scheduler`,
+    then `dask worker ADDRESS` of two processes, separate programs on loopback."""
+    dask = str(Path(sys.executable).with_name("dask"))
+    info, log = tmp_path / "scheduler.json", (tmp_path / "cluster.log").open("w")
+    argv = [dask, "scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard"]
+    procs = [subprocess.Popen([*argv, "--scheduler-file", str(info)], stdout=log, stderr=log)]
+    try:
+        deadline = time.monotonic() + 60
+        while not (info.exists() and info.stat().st_size):
+            assert procs[0].poll() is None and time.monotonic() < deadline, "no scheduler"
+            time.sleep(0.1)
+        address = json.loads(info.read_text())["address"]
+        argv = [dask, "worker", address, "--nworkers", "2", "--nthreads", "1", "--no-dashboard"]
+        procs.append(subprocess.Popen(argv, stdout=log, stderr=log, cwd=tmp_path))
+        yield address
+    finally:
+        for p in reversed(procs):
+            p.terminate()
+            try:
+                p.wait(timeout=30)
+            except subprocess.TimeoutExpired:
+                p.kill()
+        log.close()
+
+
+def test_scenarios_run_on_a_running_scheduler_s_workers(  # noqa: ANN001
+    built, running_scheduler, tmp_path, write_short_sines
+) -> None:
+    write_short_sines(tmp_path)
+    out = tmp_path / "out"
+    argv = [*VEHIL, "run", str(tmp_path / "sine-*.toml"), "--board", "native"]
+    argv += ["--scheduler", running_scheduler, "--out", str(out), "--json"]
+    cli = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    stdout, stderr = cli.communicate(timeout=300)
+    assert cli.returncode == 1, stderr  # sine-noisy fails its truth bound, wherever it ran
+    assert f"at {running_scheduler}" in stderr + stdout
+    rows = {r["scenario"]: r["verdict"] for r in json.loads(stdout)}
+    assert rows == {"sine-a": "PASS", "sine-b": "PASS", "sine-noisy": "FAIL"}
+    table = pds.dataset(out / "results").to_table().to_pylist()
+    ran_on = {r["worker"].rpartition(":")[2] for r in table}
+    assert ran_on and str(cli.pid) not in ran_on  # the workers ran them, not the command
+    assert all(r["samples"] == 500 for r in table)
+
+
+def test_a_scheduler_that_does_not_answer_is_named_with_what_to_do(built) -> None:  # noqa: ANN001
+    with socket.socket() as s:  # a port nobody listens on
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    argv = [*VEHIL, "run", "sine", "--board", "native", "--scheduler", f"tcp://127.0.0.1:{port}"]
+    proc = subprocess.run(argv, capture_output=True, text=True, timeout=120)
+    said = " ".join((proc.stdout + proc.stderr).split())
+    assert proc.returncode == 2, said
+    assert "no Dask scheduler answers there" in said and "start one (`dask scheduler`" in said
