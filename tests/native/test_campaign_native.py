@@ -109,7 +109,6 @@ def test_a_sweep_on_dask_is_the_sweep_run_here(built) -> None:  # noqa: ANN001
     assert [r["drawn.i_w"] for r in rows[1:]] == [d.drawn["i_w"] for d in there.drives]
 
 
-
 @pytest.fixture()
 def running_scheduler(tmp_path):  # noqa: ANN001, ANN201
     """A Dask cluster started the way a user starts one on a lab machine: `dask scheduler`,
