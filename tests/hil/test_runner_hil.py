@@ -105,6 +105,7 @@ def test_ctrl_c_stops_a_run_cleanly_and_keeps_what_was_recorded(tmp_path, built)
         ("manf-hard-stop-fixed", "simavr", 4.0),
         ("manf-abs-snow", "simavr", 6.0),
         ("manf-wet-fast-fixed", "simavr", 8.0),  # unlike the shipped drives
+        ("anf-abs-snow-fixed", "simavr", 3.0),  # bit-exact with the native build
         ("hard-braking-downhill-fixed", "simavr", 20.0),  # ACC: heavier car, 8 % down
         ("uiiekf3-abs-dry", "simavr", 1.5),
         ("uiiekf3-hifi-car", "simavr", 4.0),  # a car the filter does not know: DIVERGED from 3.2 s

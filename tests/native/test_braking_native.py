@@ -17,6 +17,8 @@ DIVERGED = SCHEMA.status["DIVERGED"]
         "manf-hard-stop",
         "manf-hard-stop-fixed",
         "manf-abs-snow",
+        "anf-hard-stop",
+        "anf-abs-snow-fixed",
         "uiiekf3-abs-dry",
         "uiiekf-wet-mismatch",
         "uiiekf3-other-car",

@@ -4,6 +4,7 @@
 #include <string.h>
 
 #include "estimators/params.h"
+#include "estimators/wheel_choice.h"
 #include "fixmath/fixmath.h"
 #include "proto/wire.h"
 
@@ -15,17 +16,6 @@ static const ROM param_range_t ranges[N_PARAMS] = {
     {1e-4f, 0.1f, 30},  {0.1f, 1.0f, 24}, {0.0f, 2.0f, 0}, {1.0f, 1.9f, 30}, {0.0f, 1.0f, 30},
     {0.0f, 100.0f, 24}, {0.1f, 100.0f, 24}, {0.0f, 1.0f, 0}, {0.0f, 1.0f, 0},
 };
-
-/* The wheel the filter follows: front, rear, or the faster one (the less braked). */
-static float wheel_f32(uint8_t wheel, float w_f, float w_r)
-{
-    return wheel == 0u ? w_f : wheel == 1u ? w_r : (w_f > w_r ? w_f : w_r);
-}
-
-static int32_t wheel_q(uint8_t wheel, int32_t w_f, int32_t w_r)
-{
-    return wheel == 0u ? w_f : wheel == 1u ? w_r : (w_f > w_r ? w_f : w_r);
-}
 
 /* Eqs. 39-42: the gain follows the error's sign pattern. Returns the new sign memory. */
 static int8_t adapt_sign(int8_t s_prev, int8_t s, uint8_t *grow)
@@ -53,7 +43,7 @@ static uint8_t step_f32(manf_state_t *st, const uint8_t *in, uint8_t *out)
 {
     const manf_params_f32_t *p = &st->u.f32.p;
     manf_f32_t *s = &st->u.f32.s;
-    float w = wheel_f32(st->wheel, get_f32(in), get_f32(in + 4));
+    float w = wheel_choice_f32(st->wheel, get_f32(in), get_f32(in + 4));
     uint8_t status = 0;
     if (!isfinite(w)) {
         status = STATUS_NOT_FINITE;
@@ -91,7 +81,7 @@ static uint8_t step_q(manf_state_t *st, const uint8_t *in, uint8_t *out)
 {
     const manf_params_q_t *p = &st->u.q.p;
     manf_q_t *s = &st->u.q.s;
-    int32_t w = wheel_q(st->wheel, get_i32(in), get_i32(in + 4)); /* Q16 */
+    int32_t w = wheel_choice_q(st->wheel, get_i32(in), get_i32(in + 4)); /* Q16 */
     uint8_t status = 0;
     int32_t v_w = fx_mul(p->r_w, 24, w, 16, 24, &status); /* Q24 */
     if (!st->started) {

@@ -66,7 +66,8 @@ class Manf:
 
 
 class Anf:
-    """The original ANF, eq. 38 with the working sign: v̂ -= R_g sgn(v̂ - R ω), R_g fixed."""
+    """The original ANF, eq. 38 with the working sign and reading B: v̂ -= T R_g sgn(v̂ - R ω),
+    R_g fixed. step([ω_f, ω_r]) -> [v̂]."""
 
     def __init__(self, p: Mapping[str, float]):
         self.p = p
@@ -77,7 +78,7 @@ class Anf:
         if self.v is None:
             self.v = v_w
         else:
-            self.v -= self.p["rg_fixed"] * self.p["T"] * np.sign(self.v - v_w)
+            self.v -= self.p["rg"] * self.p["T"] * np.sign(self.v - v_w)
         return np.array([self.v])
 
 
@@ -107,6 +108,23 @@ SPEC = register(
             Param("a", "m/s^2", q=24, default=8.0, lo=0.1, hi=100.0, doc="tolerable accel"),
             Param("printed_sign", "1", q=0, default=0, lo=0, hi=1, doc="1: eq. 44's sign"),
             Param("reading", "1", q=0, default=0, lo=0, hi=1, doc="0: T R_g (B), 1: R_g (A)"),
+        ),
+        paper="000-manf-uiiekf-braking",
+    )
+)
+
+ANF = register(
+    EstimatorSpec(
+        name="anf",
+        budget={"FIXED": 800, "F32": 1_000},
+        c_id=22,
+        title="ANF: the adaptive nonlinear filter MANF modifies, fixed gain (seed 000)",
+        inputs=WHEEL_SPEEDS,
+        outputs=(Signal("v", "m/s", q=16, doc="vehicle speed v̂_x"),),
+        reference=Anf,
+        params=(
+            *COMMON,
+            Param("rg", "m/s^2", q=24, default=8.0, lo=0.0, hi=100.0, doc="fixed gain R_g"),
         ),
         paper="000-manf-uiiekf-braking",
     )

@@ -70,7 +70,7 @@ def filters(T: float) -> dict[str, object]:
         "linear UIKF (5 states)": lambda: uiiekf.Uikf(uiiekf.SPEC.param_values({"T": T})),
         "MANF (corrected, reading B)": lambda: manf.Manf(manf.SPEC.param_values({"T": T})),
         "ANF (sgn, R_g = 8 m/s²)": lambda: manf.Anf(
-            {"T": T, "r_w": manf.R_W, "wheel": 0, "rg_fixed": 8.0}
+            {"T": T, "r_w": manf.R_W, "wheel": 0, "rg": 8.0}
         ),
     }
 
