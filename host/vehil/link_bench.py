@@ -2,12 +2,15 @@
 the line rate it streams, how soon it answers, and how close stop-and-wait round trips
 come to the wire and the board's compute.
 
-    python -m vehil.link_bench            # everything (~2 min on a quiet machine)
+    python -m vehil.link_bench            # everything (~3 min on a quiet machine)
+    python -m vehil.link_bench --only round_trips,loop   # the wall-clock parts alone
     python -m vehil.link_bench --json
 
-Cycle figures are simavr's, exact whatever the host's load. Round trips are host-clock
-figures on `simavr-realtime`, which is held to the chip's time only while the host
-keeps up with it: the bench measures how fast simavr runs free and says so.
+Cycle figures are simavr's, exact whatever the host's load. Round trips and the 100 Hz
+loop are host-clock figures on `simavr-realtime`, which is held to the chip's time only
+while the host keeps up with it: the bench measures how fast simavr runs free, and
+prints the host's load average with each wall-clock figure. Run those parts when the
+machine is quiet.
 """
 
 from __future__ import annotations
@@ -15,6 +18,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+import os
 import statistics
 import tempfile
 import time
@@ -41,6 +45,8 @@ ROUND_TRIP_LIMIT = 1.15  # p99 against wire + board compute: the target
 # Steps in lockstep, the frames behind each arriving while it runs, against stop-and-wait.
 STEP_SCENARIOS = ("braking/manf-hard-stop-fixed", "stlqf/heavy-rolling-fixed")
 STEP_SAMPLES = 1000
+# A 100 Hz stop-and-wait loop through the 1 Mbaud link, in real time: no sample late.
+LOOP_SCENARIO = "stlqf/heavy-rolling-fixed"  # STLQF FIXED, 60 s at 100 Hz
 
 
 def _set_baud(link: Link, baud: int) -> None:
@@ -101,6 +107,7 @@ def simavr_speed(seconds: float = 3.0) -> float:
 def round_trips(count: int, latency_cycles: float) -> list[dict[str, Any]]:
     """Stop-and-wait 16-byte PINGs on simavr-realtime against wire time + board compute."""
     rows = []
+    load = _load()
     board = make_board("simavr-realtime", BoardOptions(timeout_s=2.0))
     with board.session() as link:
         for baud in ROUND_TRIP_BAUDS:
@@ -119,9 +126,43 @@ def round_trips(count: int, latency_cycles: float) -> list[dict[str, Any]]:
                     "p99_ms": p99 * 1e3,
                     "wire_plus_compute_ms": bound_s * 1e3,
                     "p99_over_bound": p99 / bound_s,
+                    "load_before": load,
+                    "load_after": _load(),
                 }
             )
+            load = rows[-1]["load_after"]
     return rows
+
+
+def _load() -> float:
+    """The host's 1-minute load average (2 cores here): the context of a wall-clock figure."""
+    return os.getloadavg()[0]
+
+
+def realtime_loop() -> dict[str, Any]:
+    """STLQF FIXED stop-and-wait at 100 Hz in real time through the 1 Mbaud link on
+    simavr-realtime, the whole 60 s drive: late samples (a RESULT back after the next
+    sample was due), round trips and the step's cycles."""
+    sc = scenario.load(LOOP_SCENARIO)
+    load = _load()
+    r = runner.run(sc, "simavr-realtime", realtime=True, console=Console(quiet=True))
+    rtt = r.rtt_s * 1e3 if r.done else np.zeros(1)
+    return {
+        "scenario": LOOP_SCENARIO,
+        "baud": int(r.info.get("baud", 0)),
+        "ended": r.ended,
+        "error": r.error,
+        "samples": r.done,
+        "expected": r.expected,
+        "late": int(np.count_nonzero(r.late)) if r.done else None,
+        "rtt_p50_ms": float(np.percentile(rtt, 50)),
+        "rtt_p99_ms": float(np.percentile(rtt, 99)),
+        "rtt_max_ms": float(np.max(rtt)),
+        "step_max_cycles": int(np.max(r.cycles)) if r.done else None,
+        "sample_time_ms": sc.sample_time * 1e3,
+        "load_before": load,
+        "load_after": _load(),
+    }
 
 
 def step_cycles() -> list[dict[str, Any]]:
@@ -142,69 +183,112 @@ def step_cycles() -> list[dict[str, Any]]:
     return rows
 
 
-def run(count: int) -> dict[str, Any]:
+PARTS = (
+    "board_costs",
+    "streaming",
+    "reply_latency",
+    "simavr_speed",
+    "round_trips",
+    "steps",
+    "loop",
+)
+
+
+def run(count: int, parts: tuple[str, ...] = PARTS) -> dict[str, Any]:
     figures: dict[str, Any] = {}
-    with open_board("simavr") as link:
-        figures["board_costs"] = profile.board_costs(link)
-        figures["streaming"] = streaming(link, count)
-    figures["reply_latency_cycles"] = reply_latency(min(count, 300))
-    figures["simavr_speed"] = simavr_speed()
-    figures["round_trips"] = round_trips(count, figures["reply_latency_cycles"]["median"])
-    figures["step_cycles"] = step_cycles()
+    if "board_costs" in parts or "streaming" in parts:
+        with open_board("simavr") as link:
+            if "board_costs" in parts:
+                figures["board_costs"] = profile.board_costs(link)
+            if "streaming" in parts:
+                figures["streaming"] = streaming(link, count)
+    if "reply_latency" in parts or "round_trips" in parts:
+        # The round trips' bound needs the board's compute.
+        figures["reply_latency_cycles"] = reply_latency(min(count, 300))
+    if "simavr_speed" in parts:
+        figures["simavr_speed"] = simavr_speed()
+    if "round_trips" in parts:
+        figures["round_trips"] = round_trips(count, figures["reply_latency_cycles"]["median"])
+    if "steps" in parts:
+        figures["step_cycles"] = step_cycles()
+    if "loop" in parts:
+        figures["realtime_loop"] = realtime_loop()
     return figures
 
 
 def report(f: dict[str, Any]) -> str:
-    lines = ["board cycles per PING exchange (bursts at 2 Mbaud; RX interrupts counted per byte):"]
-    for c in f["board_costs"]:
+    lines = []
+    if "board_costs" in f:
+        lines.append(
+            "board cycles per PING exchange (bursts at 2 Mbaud; RX interrupts counted per byte):"
+        )
+    for c in f.get("board_costs", []):
         share = ", ".join(f"{int(b) // 1000} k {v * 100:.1f} %" for b, v in c["line_share"].items())
         lines.append(
             f"  {c['size']:3d} B: {c['cycles']:7,.0f} cycles ({c['no_rx_cycles']:,.0f} without "
             f"RX interrupts, {c['rx_isr_cycles']:,} RX, {c['tx_isr_cycles']:,} TX interrupts); "
             f"most of the line rate: {share}"
         )
-    lines.append(
-        f"windowed streaming, {PING_SIZE}-byte PINGs, window {STREAM_WINDOW}, by the board's "
-        "clock (below the board's figure above when the host cannot keep the window full):"
-    )
-    for s in f["streaming"]:
+    if "streaming" in f:
+        lines.append(
+            f"windowed streaming, {PING_SIZE}-byte PINGs, window {STREAM_WINDOW}, by the board's "
+            "clock (below the board's figure above when the host cannot keep the window full):"
+        )
+    for s in f.get("streaming", []):
         lines.append(
             f"  {s['baud']:>9,} baud: {s['board_frames_s']:,.0f} exchanges/s, "
             f"{s['board_line_fraction'] * 100:.1f} % of the 10-bit line rate "
             f"(overruns {s['overruns']}, CRC errors {s['crc_errors']})"
         )
-    r = f["reply_latency_cycles"]
-    lines.append(
-        f"request's last byte to its reply's first byte in UDR0 ({PING_SIZE}-byte PING, "
-        f"{r['exchanges']} exchanges): median {r['median']:,.0f}, min {r['min']:,.0f}, "
-        f"max {r['max']:,.0f} cycles"
-    )
-    lines.append(
-        f"simavr running free, board busy: {f['simavr_speed']:.2f} s of chip time per wall "
-        "second"
-        + (
-            " (below 1: this host cannot hold simavr-realtime to real time)"
-            if f["simavr_speed"] < 1
-            else ""
+    if "reply_latency_cycles" in f:
+        r = f["reply_latency_cycles"]
+        lines.append(
+            f"request's last byte to its reply's first byte in UDR0 ({PING_SIZE}-byte PING, "
+            f"{r['exchanges']} exchanges): median {r['median']:,.0f}, min {r['min']:,.0f}, "
+            f"max {r['max']:,.0f} cycles"
         )
-    )
-    lines.append(
-        f"stop-and-wait {PING_SIZE}-byte PINGs on simavr-realtime (host clock; wire at "
-        f"simavr's {SIMAVR_BITS_PER_BYTE} bits a byte):"
-    )
-    for t in f["round_trips"]:
+    if "simavr_speed" in f:
+        lines.append(
+            f"simavr running free, board busy: {f['simavr_speed']:.2f} s of chip time per wall "
+            "second"
+            + (
+                " (below 1: this host cannot hold simavr-realtime to real time)"
+                if f["simavr_speed"] < 1
+                else ""
+            )
+        )
+    if "round_trips" in f:
+        lines.append(
+            f"stop-and-wait {PING_SIZE}-byte PINGs on simavr-realtime (host clock; wire at "
+            f"simavr's {SIMAVR_BITS_PER_BYTE} bits a byte):"
+        )
+    for t in f.get("round_trips", []):
         lines.append(
             f"  {t['baud']:>9,} baud: p50 {t['p50_ms']:.3f} ms, p99 {t['p99_ms']:.3f} ms, wire + "
             f"compute {t['wire_plus_compute_ms']:.3f} ms: p99 {t['p99_over_bound']:.2f} x "
-            f"(target <= {ROUND_TRIP_LIMIT})"
+            f"(target <= {ROUND_TRIP_LIMIT}; host load {t['load_before']:.2f} before, "
+            f"{t['load_after']:.2f} after)"
         )
-    lines.append(
-        "cycles per estimator step, median, stop-and-wait and lockstep (target: within 5 %):"
-    )
-    for c in f["step_cycles"]:
+    if "step_cycles" in f:
+        lines.append(
+            "cycles per estimator step, median, stop-and-wait and lockstep (target: within 5 %):"
+        )
+    for c in f.get("step_cycles", []):
         lines.append(
             f"  {c['scenario']}: {c['stop_and_wait']:,.0f} / {c['lockstep']:,.0f} cycles, "
             f"lockstep {(c['lockstep_over_stop_and_wait'] - 1) * 100:+.1f} %"
+        )
+    if "realtime_loop" in f:
+        q = f["realtime_loop"]
+        verdict = "held" if q["ended"] == "completed" and q["late"] == 0 else "NOT held"
+        lines.append(
+            f"{q['scenario']} stop-and-wait at {1e3 / q['sample_time_ms']:.0f} Hz in real time on "
+            f"simavr-realtime, {q['baud']:,} baud: {verdict}: {q['samples']:,} of "
+            f"{q['expected']:,} samples ({q['ended']}), {q['late']} late; round trip p50 "
+            f"{q['rtt_p50_ms']:.2f} ms, p99 {q['rtt_p99_ms']:.2f} ms, "
+            f"max {q['rtt_max_ms']:.2f} ms; "
+            f"step max {q['step_max_cycles']:,} cycles (host load {q['load_before']:.2f} before, "
+            f"{q['load_after']:.2f} after)" + (f"; {q['error']}" if q["error"] else "")
         )
     return "\n".join(lines)
 
@@ -213,8 +297,17 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m vehil.link_bench", description=__doc__)
     ap.add_argument("--count", type=int, default=2000, help="exchanges per streaming point")
     ap.add_argument("--json", action="store_true", help="the figures as JSON")
+    ap.add_argument(
+        "--only",
+        default=",".join(PARTS),
+        help=f"comma-separated parts to run (default: all of {','.join(PARTS)})",
+    )
     args = ap.parse_args(argv)
-    figures = run(args.count)
+    parts = tuple(p.strip() for p in args.only.split(",") if p.strip())
+    unknown = [p for p in parts if p not in PARTS]
+    if unknown:
+        ap.error(f"unknown part(s) {', '.join(unknown)}: choose from {', '.join(PARTS)}")
+    figures = run(args.count, parts)
     print(json.dumps(figures, indent=1) if args.json else report(figures))
     return 0
 
