@@ -181,6 +181,22 @@ def test_a_16_bit_factor_multiplies_rounded_half_up(native_lib) -> None:  # noqa
                 assert mul(a, m, sh) == (a * m + (1 << (sh - 1))) >> sh, (a, m, sh)
 
 
+def test_a_signed_operand_times_a_16_bit_factor_rounds_half_up(native_lib) -> None:  # noqa: ANN001
+    """fx_smul_f: round(a m 2^-sh) half up (floor of a m + 2^(sh-1)) for any int32 a, at
+    every shift fx_ufactor gives, edge and random operands."""
+    mul = native_lib.fx_smul_f_c
+    mul.argtypes = [ctypes.c_int32, ctypes.c_uint16, ctypes.c_uint8]
+    mul.restype = ctypes.c_int32
+    rng = np.random.default_rng(17)
+    ays = [0, 1, -1, 2**15, -(2**15), 2**16 - 1, -(2**16), 2**31 - 1, -(2**31)]
+    ays += [int(a) for a in rng.integers(-(2**31), 2**31, 200)]
+    ms = [0, 1, 2**15, 2**16 - 1] + [int(m) for m in rng.integers(2**15, 2**16, 20)]
+    for sh in [16, 17, 18, 22, 24, 25, 32, 33, 40, 47]:
+        for a in ays:
+            for m in ms:
+                assert mul(a, m, sh) == (a * m + (1 << (sh - 1))) >> sh, (a, m, sh)
+
+
 def test_division_through_a_reciprocal_keeps_its_stated_error(native_lib) -> None:  # noqa: ANN001
     """fx_recip and fx_div_by (k = a / b as ACC's gains take it: Q28 / Q24 -> Q30) against
     exact quotients: relative error < 5e-7, or under one unit for small results; saturated

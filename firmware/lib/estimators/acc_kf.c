@@ -86,8 +86,10 @@ static uint8_t step_f32(acc_kf_state_t *st, const uint8_t *in, uint8_t *out)
             if (s->nis > p->nis_max || out_v * out_v > 9.0f * s->p11) {
                 status |= STATUS_DIVERGED;
             }
-            float a_f = lpf_f32(p, s, a_m);
-            s->w2_prev = p->rbar * (a_f - s->af[1]); /* eq. 6 */
+            if (st->corr1) { /* a_f serves correction 1 alone */
+                float a_f = lpf_f32(p, s, a_m);
+                s->w2_prev = p->rbar * (a_f - s->af[1]); /* eq. 6 */
+            }
             if (braking && s->v > p->v_guard) {
                 float slip = 1.0f - v_m / s->v; /* eq. 7, for the next step */
                 if (slip < 0.0f || slip > p->s_max) {
@@ -118,14 +120,20 @@ static void reset_q(acc_kf_params_q_t *p, acc_kf_q_t *s)
 
 static int32_t lpf_q(const acc_kf_params_q_t *p, acc_kf_q_t *s, int32_t a_m, uint8_t *st)
 {
-    /* Eq. 4b: Q29 coefficients times Q24 samples, each product rounded to Q24. */
-    int32_t a_f = fx_add(fx_add(fx_mul_rs(p->b[0], a_m, 29, st), fx_mul_rs(p->b[1], s->am[0], 29, st),
-                                st),
-                         fx_add(fx_mul_rs(p->b[2], s->am[1], 29, st),
-                                fx_add(fx_mul_rs(p->c[0], s->af[0], 29, st),
-                                       fx_mul_rs(p->c[1], s->af[1], 29, st), st),
-                                st),
-                         st);
+    /* Eq. 4b, Q29 coefficients times Q24 samples, each product rounded to Q24. The
+     * Butterworth's b are b0 (1, 2, 1): one product of 4 b0 by the samples' quarter sum,
+     * floor((a_m + 2 a_m(k-1) + a_m(k-2)) / 4) exact in int32 (its floor, at most 3/4 of
+     * a Q24 unit, offsets a_f by a constant that eq. 6's difference cancels). */
+    int32_t a_f = a_m; /* lpf_hz = 0: a_f = a_m */
+    if (p->lpf_on) {
+        int32_t x1 = s->am[0], x2 = s->am[1];
+        int32_t quarter = (a_m >> 2) + (x1 >> 1) + (x2 >> 2) +
+                          ((int32_t)((a_m & 3) + ((x1 & 1) << 1) + (x2 & 3)) >> 2);
+        a_f = fx_add(fx_mul_rs(p->b4, quarter, 29, st),
+                     fx_add(fx_mul_rs(p->c[0], s->af[0], 29, st),
+                            fx_mul_rs(p->c[1], s->af[1], 29, st), st),
+                     st);
+    }
     s->am[1] = s->am[0];
     s->am[0] = a_m;
     s->af[1] = s->af[0];
@@ -172,13 +180,14 @@ static int32_t quotient(int32_t x, fx_recip_t r, int8_t d, uint8_t *status)
 static void covariance_q(const acc_kf_params_q_t *p, acc_kf_q_t *s, int32_t c, uint8_t unit_c)
 {
     uint8_t status = 0;
-    int32_t T = p->T;
-    /* M = A P Aᵀ + Q (P11, P12 Q28; P22 Q30) */
-    int32_t t_p12 = fx_mul(T, 30, s->p12, 28, 28, &status);
-    int32_t t_p22 = fx_mul(T, 30, s->p22, 30, 28, &status);
-    int32_t m11 = fx_add(fx_sub(s->p11, fx_add(t_p12, t_p12, &status), &status),
-                         fx_add(fx_mul(p->T2, 30, s->p22, 30, 28, &status), p->q_v, &status),
-                         &status);
+    /* M = A P Aᵀ + Q (P11, P12 Q28; P22 Q30): M11 = P11 - T (2 P12 - T P22) + Q11, two
+     * products by T to 16 bits (relative error <= 2^-16: a covariance's rounding) */
+    int32_t t_p22 = fx_smul_f(s->p22, p->T_q28); /* Q28 */
+    int32_t m11 = fx_add(fx_sub(s->p11,
+                                fx_smul_f(fx_sub(fx_add(s->p12, s->p12, &status), t_p22, &status),
+                                          p->T_f),
+                                &status),
+                         p->q_v, &status);
     int32_t m12 = fx_sub(s->p12, t_p22, &status);
     int32_t m22 = fx_add(s->p22, p->q_b, &status);
     int32_t cm11 = m11, cm12 = m12;
@@ -207,17 +216,29 @@ static void covariance_q(const acc_kf_params_q_t *p, acc_kf_q_t *s, int32_t c, u
     s->p22 = p22;
     s->k1 = k1;
     s->k2 = k2;
-    s->g = fx_sub(ONE_Q30, unit_c ? k1 : fx_mul(c, 30, k1, 30, 30, &status), &status);
+    /* 1 - c k1 = R / S in (0, 1], to Q15 for the health check */
+    int32_t g = fx_sub(ONE_Q30, unit_c ? k1 : fx_mul(c, 30, k1, 30, 30, &status), &status);
+    s->g16 = g <= 0 ? 0u : (uint16_t)(((uint32_t)g + (1u << 14)) >> 15);
     s->p_status = status;
 }
 
 /* The float32 step's health check on R e²/S = e² (1 - c k1) (so no division), against
- * R nis_max. Its own saturation says "far off", not a saturated estimate. */
+ * R nis_max, in Q(2 q_e) with e to 16 bits in Q q_e (q_e from R nis_max at CONFIG: e's
+ * range 32 times the limit's root, its unit 1/1024 of it). Its own saturation (e past
+ * that range) says "far off", not a saturated estimate. */
 static uint8_t health_q(const acc_kf_params_q_t *p, acc_kf_q_t *s, int32_t e)
 {
     uint8_t hs = 0;
-    int32_t e2g = fx_mul(fx_mul(e, 20, e, 20, 20, &hs), 20, s->g, 30, 20, &hs);
-    s->nis_r = fx_add(s->nis_r, fx_mul(p->alpha, 30, fx_sub(e2g, s->nis_r, &hs), 20, 20, &hs), &hs);
+    int32_t e_r = p->e_shift ? (fx_sar32(e, (uint8_t)(p->e_shift - 1u)) + 1) >> 1 : e;
+    int16_t e16 = e_r > INT16_MAX ? INT16_MAX : e_r < -INT16_MAX ? -INT16_MAX : (int16_t)e_r;
+    __asm__("" : "+r"(e16)); /* one 16 x 16 hardware product, not a 32 x 32 (fx_mul16) */
+    uint32_t e2g = fx_umul16_q15((uint32_t)((int32_t)e16 * e16), s->g16); /* < 2^30 */
+    /* the average's step alpha (e2g - avg), on its magnitude */
+    if (e2g >= s->nis_r) {
+        s->nis_r += fx_umul_f(e2g - s->nis_r, p->alpha);
+    } else {
+        s->nis_r -= fx_umul_f(s->nis_r - e2g, p->alpha);
+    }
     int32_t out_v = s->v < -p->v_guard ? fx_add(s->v, p->v_guard, &hs)
                                        : (s->v > p->v_max ? fx_sub(s->v, p->v_max, &hs) : 0);
     uint8_t bad = s->nis_r > p->nis_lim;
@@ -264,8 +285,10 @@ static uint8_t step_q(acc_kf_state_t *st, const uint8_t *in, uint8_t *out)
         s->v = fx_add(v_pred, fx_mul(k1, 30, e, 20, 20, &status), &status);
         s->a0 = fx_add(b_pred, fx_mul(k2, 30, e, 20, 24, &status), &status);
         status |= health_q(p, s, e);
-        int32_t a_f = lpf_q(p, s, a_m, &status);
-        s->w2_prev = fx_mul(p->rbar, 30, fx_sub(a_f, s->af[1], &status), 24, 24, &status);
+        if (st->corr1) { /* a_f serves correction 1 alone */
+            int32_t a_f = lpf_q(p, s, a_m, &status);
+            s->w2_prev = fx_mul(p->rbar, 30, fx_sub(a_f, s->af[1], &status), 24, 24, &status);
+        }
         if (braking && s->v > p->v_guard) {
             fx_recip_t inv_v = fx_recip(s->v); /* s->v > v_guard > 0 */
             int32_t slip = /* Q20 / Q20 -> Q30 */
@@ -361,7 +384,8 @@ static uint8_t acc_kf_configure(void *state, uint8_t mode, const uint8_t *params
         acc_kf_params_q_t *p = &st->u.q.p;
         uint8_t sat = 0;
         p->T = param_q(params, P_T);
-        p->T2 = fx_mul(p->T, 30, p->T, 30, 30, &sat); /* T² P22: one product a step, not two */
+        p->T_f = fx_ufactor((uint32_t)p->T, 30);
+        p->T_q28 = (fx_ufactor_t){p->T_f.m, (uint8_t)(p->T_f.sh + 2u)}; /* T P22 to Q28 */
         p->r_w_half = param_q(params, P_RW) / 2; /* Q24; the radius is positive */
         p->q_v = fx_from_float(d.q_v, 28, &sat);
         p->q_b = fx_from_float(d.q_b, 30, &sat);
@@ -372,14 +396,19 @@ static uint8_t acc_kf_configure(void *state, uint8_t mode, const uint8_t *params
         p->v_guard = fx_rescale(param_q(params, P_VG), 16, 20, &sat);
         p->s_max = param_q(params, P_SMAX);
         float T = param_value(params, P_T, mode, 30);
-        uint8_t clip = 0; /* R nis_max past Q20's 2048 (m/s)²: the limit is the format's */
-        p->alpha = fx_from_float(T / param_value(params, P_NISWIN, mode, 24), 30, &sat);
-        p->nis_lim = fx_from_float(param_value(params, P_R, mode, 24) *
-                                       param_value(params, P_NISMAX, mode, 16), 20, &clip);
-        p->v_max = fx_rescale(param_q(params, P_VMAX), 16, 20, &sat);
-        for (uint8_t i = 0; i < 3u; i++) {
-            p->b[i] = fx_from_float(d.b[i], 29, &sat);
+        /* the health check's e in Q q_e: 2^15 units reach 32 times the limit's root */
+        float lim = param_value(params, P_R, mode, 24) * param_value(params, P_NISMAX, mode, 16);
+        uint8_t q_e = 0; /* the largest q_e <= 20 with 1024 lim 2^(2 q_e) <= 2^30 */
+        for (float x = 4096.0f * lim; q_e < 20u && x <= 1073741824.0f; x *= 4.0f) {
+            q_e++;
         }
+        p->e_shift = (uint8_t)(20u - q_e);
+        p->nis_lim = fx_from_float(lim, (uint8_t)(2u * q_e), &sat);
+        float alpha = T / param_value(params, P_NISWIN, mode, 24); /* <= 1 */
+        p->alpha = fx_ufactor((uint32_t)fx_from_float(alpha < 1.0f ? alpha : 0.99999f, 30, &sat), 30);
+        p->v_max = fx_rescale(param_q(params, P_VMAX), 16, 20, &sat);
+        p->lpf_on = param_value(params, P_LPF, mode, 24) > 0.0f;
+        p->b4 = fx_from_float(4.0f * d.b[0], 29, &sat);
         for (uint8_t i = 0; i < 2u; i++) {
             p->c[i] = fx_from_float(d.c[i], 29, &sat);
         }

@@ -21,6 +21,7 @@
 #include <stdint.h>
 
 #include "estimators/estimator.h"
+#include "fixmath/fixmath.h"
 
 #define ACC_KF_ID 10u
 
@@ -41,7 +42,8 @@ typedef struct {
 /* Fixed point: the Q format of each member is in its comment. */
 typedef struct {
     int32_t T;            /* Q30 */
-    int32_t T2;           /* Q30 */
+    fx_ufactor_t T_f;     /* T to 16 bits, and T_q28: T 2^-2 (T P22 from Q30 to Q28) */
+    fx_ufactor_t T_q28;
     int32_t r_w_half;     /* Q24 */
     int32_t q_v;          /* Q28 */
     int32_t q_b;          /* Q30 */
@@ -51,9 +53,11 @@ typedef struct {
     int32_t rbar;         /* Q30 */
     int32_t v_guard;      /* Q20 */
     int32_t s_max;        /* Q30 */
-    int32_t b[3], c[2];   /* Q29 */
-    int32_t alpha;        /* Q30: T / nis_window */
-    int32_t nis_lim;      /* Q20: R nis_max (m/s)², at most 2048 */
+    int32_t b4, c[2];     /* Q29: 4 b0 (b = b0 (1, 2, 1)), c1, c2 */
+    uint8_t lpf_on;       /* lpf_hz > 0 (else a_f = a_m) */
+    fx_ufactor_t alpha;   /* T / nis_window to 16 bits */
+    uint8_t e_shift;      /* 20 - q_e: e from Q20 to the health check's Q q_e */
+    uint32_t nis_lim;     /* Q(2 q_e): R nis_max (m/s)² */
     int32_t v_max;        /* Q20 */
 } acc_kf_params_q_t;
 
@@ -67,8 +71,8 @@ typedef struct {
     int32_t slip;         /* Q30 */
     int32_t am[2], af[2]; /* Q24 */
     int32_t k1, k2;       /* Q30: the last gains */
-    int32_t g;            /* Q30: 1 - c k1 = R / S */
-    int32_t nis_r;        /* Q20: R e²/S averaged, (m/s)² */
+    uint16_t g16;         /* Q15: 1 - c k1 = R / S */
+    uint32_t nis_r;       /* Q(2 q_e): R e²/S averaged, (m/s)² */
     uint8_t p_steady;     /* the last update, with c = 1, left P unchanged */
     uint8_t p_status;     /* the flags the last covariance update raised */
 } acc_kf_q_t;

@@ -106,10 +106,15 @@ fx_ufactor_t fx_ufactor(uint32_t x, uint8_t q)
     return (fx_ufactor_t){.m = (uint16_t)m, .sh = sh};
 }
 
-/* fx_umul_f out of line, for the native tests. */
+/* fx_umul_f and fx_smul_f out of line, for the native tests. */
 uint32_t fx_umul_f_c(uint32_t a, uint16_t m, uint8_t sh)
 {
     return fx_umul_f(a, (fx_ufactor_t){.m = m, .sh = sh});
+}
+
+int32_t fx_smul_f_c(int32_t a, uint16_t m, uint8_t sh)
+{
+    return fx_smul_f(a, (fx_ufactor_t){.m = m, .sh = sh});
 }
 
 int32_t fx_mul_shr_c(int32_t a, int32_t b, uint8_t s, uint8_t *status)
