@@ -111,10 +111,10 @@ def _can_log(tmp_path: Path, suffix: str) -> tuple[Path, Path]:
 def write_short_sines():  # noqa: ANN201
     """Writes three 1-s sines into a folder: sine-a, sine-b (another seed) and sine-noisy,
     whose truth bound (0.01) its noise (RMS 0.05) fails on every run."""
-    from vehil.paths import PROJECT_ROOT
+    from vehil.paths import DATA_ROOT
 
     def write(folder: Path) -> None:
-        sine = (PROJECT_ROOT / "scenarios" / "synthetic" / "sine.toml").read_text()
+        sine = (DATA_ROOT / "scenarios" / "synthetic" / "sine.toml").read_text()
         short = sine.replace("duration = 20.0", "duration = 1.0")
         (folder / "sine-a.toml").write_text(short)
         (folder / "sine-b.toml").write_text(short.replace("seed = 1", "seed = 2"))

@@ -241,9 +241,9 @@ def _ping_figures(s: PingSummary) -> dict[str, Any]:
 
 
 def cmd_build(args: argparse.Namespace) -> int:
-    from vehil.build import PARTS, build
+    from vehil.build import build
 
-    parts = tuple(args.only) if args.only else PARTS
+    parts = tuple(args.only) if args.only else None
     for part, path in build(parts, verbose=args.verbose).items():
         console.print(f"[green]built[/] {part}: {path}")
         if part == "firmware":

@@ -20,14 +20,14 @@ from pathlib import Path
 
 from vehil import estimators
 from vehil.build import registry
-from vehil.build.native import c_flags
+from vehil.build.native import c_flags, source_dirs
 from vehil.errors import BuildError
-from vehil.paths import BUILD_DIR, PROJECT_ROOT
+from vehil.paths import BUILD_DIR, DATA_ROOT
 from vehil.protocol import frame as framing
 from vehil.protocol.schema import SCHEMA
 
 FUZZ_DIR = BUILD_DIR / "fuzz"
-HARNESS = PROJECT_ROOT / "fuzz" / "fuzz_dispatch.c"
+HARNESS = DATA_ROOT / "fuzz" / "fuzz_dispatch.c"
 
 
 @dataclass(frozen=True)
@@ -47,11 +47,7 @@ def build() -> Path:
     cc = clang()
     if cc is None:
         raise BuildError("clang is not installed: `apt-get install clang libclang-rt-14-dev`")
-    sources = sorted(
-        p
-        for d in (PROJECT_ROOT / "firmware" / "lib", PROJECT_ROOT / "firmware" / "native")
-        for p in d.rglob("*.c")
-    )
+    sources = sorted(p for d in source_dirs() for p in d.rglob("*.c"))
     FUZZ_DIR.mkdir(parents=True, exist_ok=True)
     exe = FUZZ_DIR / "fuzz_dispatch"
     flags = [f for f in c_flags() if f != "-Werror"]  # clang warns about more than gcc
@@ -63,10 +59,7 @@ def build() -> Path:
         str(registry.write(FUZZ_DIR / "gen", registry.select("all")).parent),
         "-fsanitize=fuzzer,address,undefined",
         "-fno-sanitize-recover=all",
-        "-I",
-        str(PROJECT_ROOT / "firmware" / "lib"),
-        "-I",
-        str(PROJECT_ROOT / "firmware" / "native"),  # the host's port_tx.h
+        *(arg for d in source_dirs() for arg in ("-I", str(d))),  # native's port_tx.h too
         "-o",
         str(exe),
         str(HARNESS),

@@ -7,6 +7,8 @@ their living in vehil's package (docs/extending.md):
     estimators = ["specs/comp_speed.py"]   # modules that register EstimatorSpecs
     plants = ["plants/*.py"]               # modules that register PlantSpecs (globs)
     scenarios = "scenarios"                # scenarios/**/NAME.toml, found by name
+    c_sources = ["c"]                      # folders of the estimators' C: NAME.h and NAME.c
+    image = "comp_speed"                   # the estimators in the project's image
 
 The project is the nearest vehil.toml from the current directory up, or the one
 $VEHIL_PROJECT names. Packaged specs are found through the entry points
@@ -27,7 +29,7 @@ from typing import Any
 from vehil.errors import VehilError
 
 FILE_NAME = "vehil.toml"
-_KEYS = {"name", "estimators", "plants", "scenarios"}
+_KEYS = {"name", "estimators", "plants", "scenarios", "c_sources", "image"}
 
 
 class ProjectError(VehilError):
@@ -41,6 +43,8 @@ class Project:
     estimators: tuple[Path, ...]
     plants: tuple[Path, ...]
     scenarios: Path | None
+    c_sources: tuple[Path, ...] = ()  # folders: every *.c compiled, *.h on the include path
+    image: str | None = None  # vehil/build/registry.py's words; None: the project's own C
 
     def modules(self, kind: str) -> tuple[Path, ...]:
         return self.estimators if kind == "estimator" else self.plants
@@ -59,6 +63,15 @@ def _paths(root: Path, where: str, key: str, value: Any) -> tuple[Path, ...]:
             raise ProjectError(f"{where}: project.{key}: {bad[0]} is not a Python module")
         found += matches
     return tuple(found)
+
+
+def _folders(root: Path, where: str, value: Any) -> tuple[Path, ...]:
+    if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+        raise ProjectError(f"{where}: project.c_sources: a list of folders, got {value!r}")
+    missing = [v for v in value if not (root / v).is_dir()]
+    if missing:
+        raise ProjectError(f"{where}: project.c_sources: no folder {root / missing[0]}")
+    return tuple((root / v).resolve() for v in value)
 
 
 def parse(path: Path) -> Project:
@@ -85,6 +98,18 @@ def parse(path: Path) -> Project:
         estimators=_paths(root, where, "estimators", table.get("estimators", [])),
         plants=_paths(root, where, "plants", table.get("plants", [])),
         scenarios=root / str(scenarios) if scenarios is not None else None,
+        c_sources=_folders(root, where, table.get("c_sources", [])),
+        image=_image(where, table.get("image")),
+    )
+
+
+def _image(where: str, value: Any) -> str | None:
+    if value is None or isinstance(value, str):
+        return value
+    if isinstance(value, list) and all(isinstance(v, str) for v in value):
+        return " ".join(value)
+    raise ProjectError(
+        f"{where}: project.image: estimator names (a list, or `all -name`), got {value!r}"
     )
 
 

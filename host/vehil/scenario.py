@@ -16,11 +16,11 @@ from typing import Any
 from vehil import estimators, plants, project
 from vehil.errors import VehilError
 from vehil.estimators.base import MODES, EstimatorSpec
-from vehil.paths import PROJECT_ROOT
+from vehil.paths import DATA_ROOT
 from vehil.perturb import Perturbation, declare
 from vehil.protocol.schema import SCHEMA
 
-SCENARIO_DIR = PROJECT_ROOT / "scenarios"
+SCENARIO_DIR = DATA_ROOT / "scenarios"
 LOG_FORMATS = ("csv", "mdf4", "vehil", "blf", "asc", "candump")
 LOG_SUFFIXES = {
     ".csv": "csv",

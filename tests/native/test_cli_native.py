@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from vehil import cli, record
-from vehil.paths import PROJECT_ROOT
+from vehil.paths import DATA_ROOT
 from vehil.report import _firmware
 
 VEHIL = [sys.executable, "-m", "vehil"]
@@ -114,7 +114,7 @@ def test_runs_that_name_no_folder_stay_out_of_the_checkout(built) -> None:  # no
     run = runner.run(sc, "native", console=Console(quiet=True))
     assert run.recording is not None
     assert run.recording.resolve().is_relative_to(Path(os.environ["VEHIL_RUNS"]).resolve())
-    assert not run.recording.resolve().is_relative_to(PROJECT_ROOT)
+    assert not run.recording.resolve().is_relative_to(DATA_ROOT)
 
 
 def test_several_scenarios_on_two_boards_at_once_give_one_table_and_the_worst_status(

@@ -11,9 +11,9 @@ from vehil.boards import open_board
 from vehil.errors import BoardError
 from vehil.estimators import eso, kfui
 from vehil.papers.eso import U_MAX, board_loop
-from vehil.paths import PROJECT_ROOT
+from vehil.paths import DATA_ROOT
 
-SCENARIOS = PROJECT_ROOT / "scenarios" / "eso"
+SCENARIOS = DATA_ROOT / "scenarios" / "eso"
 
 
 @pytest.mark.parametrize(

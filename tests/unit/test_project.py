@@ -107,7 +107,7 @@ def test_a_packaged_plugin_registers_through_its_entry_point(tmp_path) -> None:
     [
         (
             '[project]\nestimator = ["x.py"]\n',
-            r"project.estimator: unknown key; allowed: estimators",
+            r"project.estimator: unknown key; allowed: c_sources, estimators",
         ),
         (
             '[project]\nestimators = ["nothing/*.py"]\n',

@@ -40,4 +40,4 @@ def test_a_wrong_selection_is_named(spec: str, says: str) -> None:
 def test_a_descriptor_without_its_state_type_is_named(tmp_path: Path) -> None:
     (tmp_path / "mine.h").write_text("extern const ROM estimator_t mine_estimator;\n")
     with pytest.raises(BuildError, match=r"mine.h: declares mine_estimator but no mine_state_t"):
-        registry.available(tmp_path)
+        registry.available([tmp_path])

@@ -15,19 +15,20 @@ import re
 import shutil
 import subprocess
 import sys
+from collections.abc import Sequence
 from pathlib import Path
 
 from platformio.dependencies import get_core_dependencies
 
 from vehil.errors import BuildError
-from vehil.paths import BUILD_DIR, PROJECT_ROOT
+from vehil.paths import DATA_ROOT, PIO_WORKSPACE, image_elf
 
-CORE_DIR = PROJECT_ROOT / ".pio" / "core"
-_TOOL_SCONS_SOURCE = PROJECT_ROOT / "platform" / "tool-scons"
+CORE_DIR = PIO_WORKSPACE / "core"
+_TOOL_SCONS_SOURCE = DATA_ROOT / "platform" / "tool-scons"
 
 
 def firmware_elf(env: str = "offline") -> Path:
-    return PROJECT_ROOT / ".pio" / "build" / env / "firmware.elf"
+    return PIO_WORKSPACE / "build" / env / "firmware.elf"
 
 
 def install_tool_scons(core_dir: Path = CORE_DIR) -> Path:
@@ -52,10 +53,13 @@ def install_tool_scons(core_dir: Path = CORE_DIR) -> Path:
     return target
 
 
-def _environment(core_dir: Path) -> dict[str, str]:
+def _environment() -> dict[str, str]:
+    """PlatformIO's folders in vehil's cache (vehil/paths.py): vehil's own sources may be
+    an installed package's, which nothing writes into."""
     env = dict(os.environ)
     env.update(
-        PLATFORMIO_CORE_DIR=str(core_dir),
+        PLATFORMIO_CORE_DIR=str(CORE_DIR),
+        PLATFORMIO_WORKSPACE_DIR=str(PIO_WORKSPACE),
         PLATFORMIO_SETTING_ENABLE_TELEMETRY="No",
         PLATFORMIO_SETTING_CHECK_PLATFORMIO_INTERVAL="36500",
         PLATFORMIO_DISABLE_PROGRESSBAR="true",
@@ -88,38 +92,47 @@ def check_data_in_low_flash(elf: Path) -> None:
     raise BuildError(f"{elf}: no .data in `avr-objdump -h` output:\n{out.stdout}{out.stderr}")
 
 
-IMAGES_DIR = BUILD_DIR / "images"
-
-
 def default_estimators() -> str:
     """platformio.ini's custom_estimators for the default image."""
     ini = configparser.ConfigParser(interpolation=None, inline_comment_prefixes=(";",))
-    ini.read(PROJECT_ROOT / "platformio.ini")
+    ini.read(DATA_ROOT / "platformio.ini")
     return ini["env"].get("custom_estimators", "all")
 
 
-def build_image(estimators: str, *, verbose: bool = False) -> Path:
+def build_image(
+    estimators: str,
+    c_sources: Sequence[Path] = (),
+    *,
+    key: str | None = None,
+    verbose: bool = False,
+) -> Path:
     """The default env's image holding `estimators` (registry.select's words: `all -manf`,
-    `manf acc_kf`), built in its own folder under build/images (incrementally, and
-    leaving the envs' builds alone); returns its ELF."""
-    key = re.sub(r"[^a-z0-9_]+", "-", estimators.lower()).strip("-") or "all"
-    folder = IMAGES_DIR / key
+    `manf acc_kf`), with the C in the `c_sources` folders (a project's) compiled in, built
+    in its own folder under build/images (incrementally, and leaving the envs' builds
+    alone); returns its ELF."""
+    key = key or re.sub(r"[^a-z0-9_]+", "-", estimators.lower()).strip("-") or "all"
+    elf = image_elf(key)
+    folder = elf.parents[2]
     folder.mkdir(parents=True, exist_ok=True)
     ini = folder / "platformio.ini"
-    base = (PROJECT_ROOT / "platformio.ini").read_text()
-    text = f"{base}\n[env:image]\nextends = env:offline\ncustom_estimators = {estimators}\n"
+    base = (DATA_ROOT / "platformio.ini").read_text()
+    text = (
+        f"{base}\n[env:image]\nextends = env:offline\ncustom_estimators = {estimators}\n"
+        f"custom_c_sources = {' '.join(map(str, c_sources))}\n"
+    )
     if not ini.exists() or ini.read_text() != text:
         ini.write_text(text)
     install_tool_scons()
-    cmd = [sys.executable, "-m", "platformio", "run", "-d", str(PROJECT_ROOT), "-c", str(ini)]
-    env = {**_environment(CORE_DIR), "PLATFORMIO_BUILD_DIR": str(folder / "pio")}
+    cmd = [sys.executable, "-m", "platformio", "run", "-d", str(DATA_ROOT), "-c", str(ini)]
+    env = {**_environment(), "PLATFORMIO_BUILD_DIR": str(folder / "pio")}
     proc = subprocess.run([*cmd, "-e", "image"], env=env, capture_output=True, text=True)
     if verbose or proc.returncode != 0:
         tail = "\n".join((proc.stdout + proc.stderr).strip().splitlines()[-30:])
         if proc.returncode != 0:
             raise BuildError(f"image build failed ({estimators}):\n{tail}")
         print(tail)
-    return folder / "pio" / "image" / "firmware.elf"
+    check_data_in_low_flash(elf)
+    return elf
 
 
 _SIZE_LINE = re.compile(r"^(RAM|Flash):\s+\[.*\]\s+(.*)$")
@@ -128,10 +141,10 @@ _SIZE_LINE = re.compile(r"^(RAM|Flash):\s+\[.*\]\s+(.*)$")
 def build_firmware(env: str = "offline", *, verbose: bool = False) -> Path:
     """Runs `pio run -e ENV`; prints PlatformIO's RAM/Flash lines; returns the ELF."""
     install_tool_scons()
-    cmd = [sys.executable, "-m", "platformio", "run", "-d", str(PROJECT_ROOT), "-e", env]
+    cmd = [sys.executable, "-m", "platformio", "run", "-d", str(DATA_ROOT), "-e", env]
     if verbose:
         cmd.append("-v")
-    proc = subprocess.run(cmd, env=_environment(CORE_DIR), capture_output=True, text=True)
+    proc = subprocess.run(cmd, env=_environment(), capture_output=True, text=True)
     output = proc.stdout + proc.stderr
     if verbose:
         print(output)

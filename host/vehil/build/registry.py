@@ -1,11 +1,12 @@
 """The estimator registry of an image, generated: no central file to edit.
 
-An estimator is found by its header in firmware/lib/estimators: one that declares
-`extern const ROM estimator_t NAME_estimator;` and its state type `NAME_state_t`. Each
-build writes `registry_gen.h` into its own folder (the AVR envs, the native library, the
-fuzzer) with the estimators it holds: their headers, the state union's members and the
-table, which firmware/lib/estimators/registry.c expands. The union is as large as the
-largest state in the image, so an image with fewer estimators leaves more RAM.
+An estimator is found by its header, in firmware/lib/estimators or in a project's C
+folders (vehil.toml's `c_sources`): one that declares `extern const ROM estimator_t
+NAME_estimator;` and its state type `NAME_state_t`. Each build writes `registry_gen.h`
+into its own folder (the AVR envs, the native library, the fuzzer) with the estimators it
+holds: their headers, the state union's members and the table, which
+firmware/lib/estimators/registry.c expands. The union is as large as the largest state in
+the image, so an image with fewer estimators leaves more RAM.
 """
 
 from __future__ import annotations
@@ -15,37 +16,44 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from vehil.errors import BuildError
-from vehil.paths import PROJECT_ROOT
+from vehil.paths import DATA_ROOT
 
-ESTIMATOR_DIR = PROJECT_ROOT / "firmware" / "lib" / "estimators"
+ESTIMATOR_DIR = DATA_ROOT / "firmware" / "lib" / "estimators"
 HEADER_NAME = "registry_gen.h"
 _DESCRIPTOR = re.compile(r"^extern const ROM estimator_t (\w+)_estimator;", re.M)
 FIRST = "passthrough"  # index 0: the link's own estimator
 
 
-def available(folder: Path = ESTIMATOR_DIR) -> dict[str, Path]:
-    """Every estimator whose header declares a descriptor, by name."""
+def available(extra: Sequence[Path] = ()) -> dict[str, Path]:
+    """Every estimator whose header declares a descriptor, by name: vehil's, then those in
+    the `extra` folders (a project's C)."""
     found: dict[str, Path] = {}
-    for header in sorted(folder.glob("*.h")):
-        text = header.read_text()
-        for name in _DESCRIPTOR.findall(text):
-            if not re.search(rf"\b{name}_state_t\b", text):
-                raise BuildError(
-                    f"{header}: declares {name}_estimator but no {name}_state_t "
-                    "(the registry sizes the state area from it)"
-                )
-            found[name] = header
+    for folder in (ESTIMATOR_DIR, *extra):
+        for header in sorted(folder.glob("*.h")):
+            text = header.read_text()
+            for name in _DESCRIPTOR.findall(text):
+                if not re.search(rf"\b{name}_state_t\b", text):
+                    raise BuildError(
+                        f"{header}: declares {name}_estimator but no {name}_state_t "
+                        "(the registry sizes the state area from it)"
+                    )
+                if name in found:
+                    raise BuildError(
+                        f"{header}: estimator {name!r} is declared in {found[name]} too: "
+                        "rename one (its C names and the spec's name)"
+                    )
+                found[name] = header
     return found
 
 
-def select(spec: str, folder: Path = ESTIMATOR_DIR) -> list[str]:
+def select(spec: str, extra: Sequence[Path] = ()) -> list[str]:
     """An image's estimators from `all`, `all -a -b` or `a b c` (passthrough always)."""
-    known = available(folder)
+    known = available(extra)
     words = spec.split()
     if not words or words[0] == "all":
         drop = [w[1:] for w in words[1:] if w.startswith("-")]
-        extra = [w for w in words[1:] if not w.startswith("-")]
-        if extra:
+        others = [w for w in words[1:] if not w.startswith("-")]
+        if others:
             raise BuildError(f"estimators {spec!r}: after `all` only `-name` may follow")
         names = [n for n in known if n not in drop]
         unknown = [n for n in drop if n not in known]
@@ -53,19 +61,25 @@ def select(spec: str, folder: Path = ESTIMATOR_DIR) -> list[str]:
         names = list(dict.fromkeys([FIRST, *words]))
         unknown = [n for n in names if n not in known]
     if unknown:
+        folders = ", ".join(str(f) for f in (ESTIMATOR_DIR, *extra))
         raise BuildError(
-            f"estimators {spec!r}: no estimator {unknown[0]!r} in {folder} "
+            f"estimators {spec!r}: no estimator {unknown[0]!r} in {folders} "
             f"(there: {', '.join(sorted(known))})"
         )
     return sorted(names, key=lambda n: (n != FIRST, n))
 
 
-def render(names: Sequence[str], folder: Path = ESTIMATOR_DIR) -> str:
-    known = available(folder)
+def render(names: Sequence[str], extra: Sequence[Path] = ()) -> str:
+    known = available(extra)
+
+    def include(header: Path) -> str:  # vehil's by the include path, a project's by its own
+        return f"estimators/{header.name}" if header.parent == ESTIMATOR_DIR else str(header)
+
     lines = [
         "/* Generated by vehil build (host/vehil/build/registry.py): the estimators in this",
-        " * image. Do not edit; choose them with platformio.ini's custom_estimators. */",
-        *(f'#include "estimators/{known[n].name}"' for n in names),
+        " * image. Do not edit; choose them with platformio.ini's custom_estimators or",
+        " * vehil.toml's image. */",
+        *(f'#include "{include(known[n])}"' for n in names),
         "#define VEHIL_REGISTRY_STATES \\",
         *(f"    {n}_state_t {n}; \\" for n in names),
         "",
@@ -76,12 +90,12 @@ def render(names: Sequence[str], folder: Path = ESTIMATOR_DIR) -> str:
     return "\n".join(lines) + "\n"
 
 
-def write(folder: Path, names: Sequence[str]) -> Path:
+def write(folder: Path, names: Sequence[str], extra: Sequence[Path] = ()) -> Path:
     """registry_gen.h for these estimators into folder (rewritten only when it changes,
     so builds stay incremental)."""
     folder.mkdir(parents=True, exist_ok=True)
     path = folder / HEADER_NAME
-    text = render(names)
+    text = render(names, extra)
     if not path.exists() or path.read_text() != text:
         path.write_text(text)
     return path

@@ -14,7 +14,7 @@ from elftools.elf.elffile import ELFFile
 from elftools.elf.sections import SymbolTableSection
 
 from vehil.errors import VehilError
-from vehil.paths import PROJECT_ROOT
+from vehil.paths import DATA_ROOT
 
 FLASH_END = 0x800000  # avr-ld's data space starts here
 _LTO_SUFFIX = re.compile(r"\.lto_priv\.\d+$")
@@ -240,14 +240,14 @@ class ElfMap:
             if prog is None:
                 continue
             comp_dir = cu.get_top_DIE().attributes.get("DW_AT_comp_dir")
-            base = Path(comp_dir.value.decode()) if comp_dir else PROJECT_ROOT
+            base = Path(comp_dir.value.decode()) if comp_dir else DATA_ROOT
             dirs = [d.decode() for d in prog.header["include_directory"]]
             files = []
             for fe in prog.header["file_entry"]:
                 d = dirs[fe.dir_index - 1] if fe.dir_index else ""
                 p = base / d / fe.name.decode()
                 try:
-                    files.append(str(p.resolve().relative_to(PROJECT_ROOT)))
+                    files.append(str(p.resolve().relative_to(DATA_ROOT)))
                 except ValueError:
                     files.append(str(p))
             for entry in prog.get_entries():
@@ -293,7 +293,7 @@ class ElfMap:
         return sorted(set(found))
 
     def source_line_of(self, relpath: str, pattern: str) -> int:
-        text = (PROJECT_ROOT / relpath).read_text().splitlines()
+        text = (DATA_ROOT / relpath).read_text().splitlines()
         hits = [i + 1 for i, t in enumerate(text) if pattern in t]
         if len(hits) != 1:
             raise ElfMapError(f"{relpath}: expected one line with {pattern!r}, found {len(hits)}")

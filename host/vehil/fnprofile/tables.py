@@ -12,7 +12,7 @@ from rich.table import Table
 
 from vehil.fnprofile.elfmap import Line
 from vehil.fnprofile.model import Profile
-from vehil.paths import PROJECT_ROOT
+from vehil.paths import DATA_ROOT
 
 
 def _mmm(x: np.ndarray, per: int) -> tuple[str, str, str]:
@@ -213,7 +213,7 @@ def _source(path: Path) -> tuple[str, ...]:
 def _is_crc(line: Line | None) -> bool:
     if line is None or line.file == _CRC_HEADER:
         return line is not None
-    text = _source(PROJECT_ROOT / line.file) if line.file.endswith(".S") else ()
+    text = _source(DATA_ROOT / line.file) if line.file.endswith(".S") else ()
     return 0 < line.line <= len(text) and text[line.line - 1].strip() == _CRC_MACRO
 
 

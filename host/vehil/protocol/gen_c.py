@@ -8,10 +8,10 @@ from __future__ import annotations
 
 import sys
 
-from vehil.paths import PROJECT_ROOT
+from vehil.paths import DATA_ROOT
 from vehil.protocol.schema import C_TYPES, SCHEMA, Schema
 
-HEADER_PATH = PROJECT_ROOT / "firmware" / "lib" / "proto" / "messages.h"
+HEADER_PATH = DATA_ROOT / "firmware" / "lib" / "proto" / "messages.h"
 
 _PUT = {"u8": "put_u8", "u16": "put_u16", "u32": "put_u32", "i32": "put_i32", "f32": "put_f32"}
 _GET = {"u8": "get_u8", "u16": "get_u16", "u32": "get_u32", "i32": "get_i32", "f32": "get_f32"}
@@ -74,7 +74,7 @@ def render(schema: Schema = SCHEMA) -> str:
 
 def main() -> int:
     HEADER_PATH.write_text(render())
-    print(f"wrote {HEADER_PATH.relative_to(PROJECT_ROOT)}")
+    print(f"wrote {HEADER_PATH.relative_to(DATA_ROOT)}")
     return 0
 
 
