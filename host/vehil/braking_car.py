@@ -13,8 +13,6 @@ from dataclasses import dataclass, fields
 
 from vehil.spec import Param
 
-G = 9.81  # m/s²
-
 CAR_PARAMS = (
     Param("m", "kg", q=0, default=850.0, lo=100.0, hi=5000.0, doc="vehicle mass"),
     Param("r_w", "m", q=0, default=0.27, lo=0.1, hi=1.0, doc="wheel radius"),
@@ -29,6 +27,7 @@ CAR_PARAMS = (
     Param("c_d", "1", q=0, default=0.32, lo=0.0, hi=2.0, doc="drag coefficient"),
     Param("a_f", "m^2", q=0, default=1.87, lo=0.5, hi=10.0, doc="frontal area"),
     Param("h_a", "m", q=0, default=1.16, lo=0.0, hi=3.0, doc="height of the drag force"),
+    Param("g", "m/s^2", q=0, default=9.81, lo=9.0, hi=10.5, doc="gravity"),
 )
 
 # Burckhardt (c1, c2, c3) by surface.
@@ -61,6 +60,7 @@ class Car:
     c_d: float
     a_f: float
     h_a: float
+    g: float
 
     @classmethod
     def of(cls, p: Mapping[str, float]) -> Car:
@@ -72,4 +72,4 @@ class Car:
 
     @property
     def weight(self) -> float:
-        return self.m * G
+        return self.m * self.g

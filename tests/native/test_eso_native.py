@@ -12,6 +12,7 @@ from vehil.errors import BoardError
 from vehil.estimators import eso, kfui
 from vehil.papers.eso import U_MAX, board_loop
 from vehil.paths import DATA_ROOT
+from vehil.protocol.schema import SCHEMA
 
 SCENARIOS = DATA_ROOT / "scenarios" / "eso"
 
@@ -91,3 +92,20 @@ def test_fixed_point_recovers_once_its_input_is_back_in_range(built) -> None:  #
         tol = sc.tolerances[s.name].abs
         assert np.abs(out[:300, i] - ref[:300, i]).max() <= tol, s.name
         assert np.abs(out[-100:, i] - ref[-100:, i]).max() <= tol, s.name  # the last second
+
+
+def test_the_kfui_flags_a_runaway_where_the_reference_does_and_not_before(run_scenario) -> None:  # noqa: ANN001, E501
+    """Bump stops and a tire lifting off, which its model lacks: the KF-UI's estimate leaves
+    ±x_max and then runs away. DIVERGED from there, on the reference's steps, none before;
+    on a mismatched car over ISO class C (its model wrong, but not diverging) none at all."""
+    result = run_scenario("kfui-bump-stop-diverges", board="native")
+    result.assert_passed()
+    flagged = (result.run.status & SCHEMA.status["DIVERGED"]) != 0
+    reference = kfui.ecu(result.run.prepared.scenario.params)
+    for u in result.run.prepared.inputs:
+        reference.step(u)
+    assert np.array_equal(flagged, np.array(reference.obs.diverged))
+    assert flagged.any() and not flagged[: int(1.37 / 0.01)].any()  # the bump at 1.36 s
+    quiet = run_scenario("mismatch-iso-c60-kfui", board="native")
+    quiet.assert_passed()
+    assert quiet.figures.status["DIVERGED"] == 0

@@ -3,14 +3,16 @@
 #include <math.h>
 #include <string.h>
 
+#include "estimators/health.h"
 #include "proto/wire.h"
 
-enum { P_T, P_Q, P_RX, P_RA, P_P0, P_S0, N_OWN };
+enum { P_T, P_Q, P_RX, P_RA, P_P0, P_S0, P_NISMAX, P_NISWIN, P_XMAX, N_OWN };
 #define N_PARAMS (N_OWN + SUSP_ECU_N_PARAMS)
 
 static const ROM param_range_t ranges[N_OWN] = {
     {1e-4f, 0.05f, 30}, {1e-9f, 1e3f, 16}, {1e-9f, 1e3f, 16},
     {1e-9f, 1e3f, 16},  {0.0f, 1e3f, 16}, {0.0f, 1e3f, 16},
+    {0.1f, 1e6f, 16},   {0.05f, 100.0f, 16}, {0.01f, 10.0f, 16},
 };
 
 /* The strut's tangent stiffness k and damping c at deflection dx, rate dv (eq. 37). */
@@ -76,7 +78,9 @@ static void predict(kfui_state_t *s, float u, float *xb, float Pb[4][4])
 /* (29)-(33) through Σ = H P̄ Hᵀ + R = L D Lᵀ (L unit lower triangular). With z = L⁻¹ r0
  * the decorrelated innovations, the GLS input estimate (30)-(31) is û = z_4 / d1 and the
  * update (32)-(33) is that of z_1..z_3 alone: x = x̄ + Σ_j Y_j z_j / D_j and
- * P = P̄ - Σ_j Y_j Y_jᵀ / D_j, j < 4, Y = P̄ Hᵀ L⁻ᵀ (docs/estimators/kfui.md). */
+ * P = P̄ - Σ_j Y_j Y_jᵀ / D_j, j < 4, Y = P̄ Hᵀ L⁻ᵀ (docs/estimators/kfui.md). Σ_j z_j² / D_j,
+ * j < 4, is the innovation's NIS outside the road's direction, into the health check's
+ * average; û's variance S is D_4 / d1². */
 static uint8_t update(kfui_state_t *s, const float *y, float u, const float *xb, float Pb[4][4])
 {
     const kfui_const_t *c = &s->c;
@@ -104,7 +108,7 @@ static uint8_t update(kfui_state_t *s, const float *y, float u, const float *xb,
     S[3][1] = c->inv_m_us * t1 - c->d1 * G[2][1];
     S[3][2] = G[2][3];
     S[3][3] = s->r_a + c->inv_m_us * t3 - c->d1 * G[2][3];
-    float L[4][4], E[4][4], inv_D[4]; /* E_ij = L_ij D_j */
+    float L[4][4], E[4][4], inv_D[4], pivot = 0.0f; /* E_ij = L_ij D_j; pivot: D_4 */
     for (uint8_t j = 0; j < 4u; j++) {
         for (uint8_t i = j; i < 4u; i++) {
             float v = S[i][j];
@@ -118,6 +122,7 @@ static uint8_t update(kfui_state_t *s, const float *y, float u, const float *xb,
                     return STATUS_SINGULAR;
                 }
                 inv_D[j] = 1.0f / v;
+                pivot = v;
             } else {
                 E[i][j] = v;
                 L[i][j] = v * inv_D[j];
@@ -134,6 +139,9 @@ static uint8_t update(kfui_state_t *s, const float *y, float u, const float *xb,
         z[i] = v;
     }
     s->d = z[3] * c->inv_d1;
+    s->var_d = pivot * c->inv_d1 * c->inv_d1;
+    s->nis = health_nis_mean(s->nis, s->alpha,
+                             z[0] * z[0] * inv_D[0] + z[1] * z[1] * inv_D[1] + z[2] * z[2] * inv_D[2]);
     float Y[4][3], V[4][3];
     for (uint8_t i = 0; i < 4u; i++) {
         for (uint8_t j = 0; j < 3u; j++) {
@@ -155,11 +163,24 @@ static uint8_t update(kfui_state_t *s, const float *y, float u, const float *xb,
     return 0;
 }
 
+/* DIVERGED (docs/estimators/kfui.md, "Health"): the windowed NIS passes nis_max, a variance
+ * is negative, or x̂_s, x̂_us or û is 3σ outside ±x_max. */
+static uint8_t healthy(const kfui_state_t *s)
+{
+    float x_max = s->x_max;
+    return s->nis <= s->nis_max && s->P[0][0] >= 0.0f && s->P[1][1] >= 0.0f &&
+           s->P[2][2] >= 0.0f && s->P[3][3] >= 0.0f && s->var_d >= 0.0f &&
+           !health_outside_3sigma(s->x[0], -x_max, x_max, s->P[0][0]) &&
+           !health_outside_3sigma(s->x[2], -x_max, x_max, s->P[2][2]) &&
+           !health_outside_3sigma(s->d, -x_max, x_max, s->var_d);
+}
+
 static uint8_t kfui_update(kfui_state_t *s, const float *y, float u)
 {
     float xb[4], Pb[4][4];
     predict(s, u, xb, Pb);
-    return update(s, y, u, xb, Pb);
+    uint8_t status = update(s, y, u, xb, Pb);
+    return healthy(s) ? status : status | STATUS_DIVERGED;
 }
 
 static uint8_t kfui_step(void *state, const uint8_t *in, uint8_t in_len, uint8_t *out,
@@ -200,6 +221,8 @@ static void kfui_reset(void *state)
         s->P[i][i] = s->p0;
     }
     s->d = 0.0f; /* û*(0) = 0; S is recomputed each step, so S0 is never read (30) */
+    s->var_d = 0.0f;
+    s->nis = 0.0f;
 }
 
 static uint8_t kfui_configure(void *state, uint8_t mode, const uint8_t *params)
@@ -214,6 +237,9 @@ static uint8_t kfui_configure(void *state, uint8_t mode, const uint8_t *params)
     s->r_x = get_f32(params + 4u * P_RX);
     s->r_a = get_f32(params + 4u * P_RA);
     s->p0 = get_f32(params + 4u * P_P0);
+    s->nis_max = get_f32(params + 4u * P_NISMAX);
+    s->alpha = s->T / get_f32(params + 4u * P_NISWIN);
+    s->x_max = get_f32(params + 4u * P_XMAX);
     susp_ecu_configure_f32(&s->ecu, params, N_OWN, mode, s->T);
     const qcar_f32_t *m = &s->ecu.model;
     float inv_m_s = 1.0f / m->m_s, inv_m_us = 1.0f / m->m_us, d1 = m->k_us * inv_m_us;

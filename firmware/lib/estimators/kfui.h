@@ -7,7 +7,9 @@
  * (docs/estimators/kfui.md).
  *
  * Inputs  a_s, a_us [m/s²].   Outputs see susp_ecu.h.
- * Params  T, q, r_x, r_a, p0, s0, then the ECU tail. */
+ * Params  T, q, r_x, r_a, p0, s0, nis_max, nis_window, x_max, then the ECU tail.
+ * Health: DIVERGED when the windowed NIS passes nis_max, a variance is negative, or x̂_s,
+ * x̂_us or x̂_r is more than 3σ outside ±x_max. */
 #ifndef VEHIL_ESTIMATORS_KFUI_H
 #define VEHIL_ESTIMATORS_KFUI_H
 
@@ -29,7 +31,10 @@ typedef struct {
     susp_ecu_f32_t ecu;
     kfui_const_t c;
     float T, q, r_x, r_a, p0;
+    float nis_max, alpha, x_max; /* health: alpha = T / nis_window */
     float x[4], P[4][4], d; /* x̂, P (kept exactly symmetric), û* = x̂_r */
+    float var_d;            /* S: û*'s variance */
+    float nis;              /* the NIS outside the road's direction, averaged */
 } kfui_state_t;
 
 extern const ROM estimator_t kfui_estimator;

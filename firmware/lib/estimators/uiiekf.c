@@ -3,13 +3,14 @@
 #include <math.h>
 #include <string.h>
 
+#include "estimators/health.h"
 #include "estimators/params.h"
 #include "proto/wire.h"
 
 enum {
     P_T, P_N, P_ITER, P_FORM, P_C1, P_C2, P_C3, P_P0, P_QV, P_QLAT, P_QW, P_R,
     P_M, P_RW, P_IW, P_KB, P_PSI, P_HCG, P_LF, P_LR, P_VMAX, P_NISMAX, P_VMIN, P_NISWIN,
-    P_IZ, P_RHO, P_CD, P_AF, P_HA, N_PARAMS
+    P_IZ, P_RHO, P_CD, P_AF, P_HA, P_G, N_PARAMS
 };
 
 static const ROM param_range_t ranges[N_PARAMS] = {
@@ -20,10 +21,8 @@ static const ROM param_range_t ranges[N_PARAMS] = {
     {0.1f, 1.5f, 0},      {0.1f, 2.0f, 0},   {0.3f, 4.0f, 0},   {0.3f, 4.0f, 0},
     {1.0f, 200.0f, 0},    {1.0f, 1e6f, 0},   {0.0f, 10.0f, 0},  {0.1f, 100.0f, 0},
     {50.0f, 20000.0f, 0}, {0.5f, 1.5f, 0},   {0.0f, 2.0f, 0},   {0.5f, 10.0f, 0},
-    {0.0f, 3.0f, 0},
+    {0.0f, 3.0f, 0},      {9.0f, 10.5f, 0},
 };
-
-#define GRAVITY 9.81f /* m/s², as the reference's (vehil/braking_car.py) */
 
 /* One wheel's braking-positive forces and their partials by (v, v_lat, ω). The filter
  * assumes δ = 0, and at v_lat = 0 the lateral block decouples from the wheels exactly
@@ -218,9 +217,8 @@ static uint8_t covariance_ok(const uiiekf_state_t *st)
 static uint8_t estimate_ok(const uiiekf_state_t *st)
 {
     const uiiekf_params_t *p = &st->p;
-    float v = st->x[0], var = st->P[0][0], hi = v - p->v_max;
-    return st->nis <= p->nis_max && covariance_ok(st) && !(v < 0.0f && v * v > 9.0f * var) &&
-           !(hi > 0.0f && hi * hi > 9.0f * var);
+    return st->nis <= p->nis_max && covariance_ok(st) &&
+           !health_outside_3sigma(st->x[0], 0.0f, p->v_max, st->P[0][0]);
 }
 
 static void reset(uiiekf_state_t *st)
@@ -264,7 +262,7 @@ static uint8_t uiiekf_step(void *state, const uint8_t *in, uint8_t in_len, uint8
         }
         if (z[0] >= p->w_min || z[1] >= p->w_min) {
             if (status == 0) {
-                st->nis += p->alpha * (nis - st->nis);
+                st->nis = health_nis_mean(st->nis, p->alpha, nis);
             }
         } else {
             /* Standstill: the slip model means nothing, d̂ is the wheels' noise times
@@ -302,7 +300,7 @@ static uint8_t uiiekf_configure(void *state, uint8_t mode, const uint8_t *params
     if (n != 3u && n != 5u) {
         return 1u + P_N;
     }
-    float L2 = 2.0f * (v[P_LF] + v[P_LR]), inv_L2 = 1.0f / L2, weight = v[P_M] * GRAVITY;
+    float L2 = 2.0f * (v[P_LF] + v[P_LR]), inv_L2 = 1.0f / L2, weight = v[P_M] * v[P_G];
     float T_iw = v[P_T] / v[P_IW], cb0 = -v[P_KB] * T_iw, cb1 = -(1.0f - v[P_KB]) * T_iw;
     float psi = v[P_PSI], c1 = v[P_C1], c2 = v[P_C2], c3 = v[P_C3];
     st->p = (uiiekf_params_t){

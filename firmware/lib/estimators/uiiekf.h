@@ -7,7 +7,7 @@
  * Inputs  ω_f, ω_r [rad/s].   Outputs v̂_x [m/s], d̂ (innovation along C B).
  * Params  T, n_states, iterations, form, c1, c2, c3 (the model's tires), p0, q_v, q_lat,
  *         q_w, r_meas; the car: m, r_w, i_w, k_b, psi, h_cg, l_f, l_r; the health check:
- *         v_max, nis_max. */
+ *         v_max, nis_max, v_min, nis_window; the car's i_z, rho, c_d, a_f, h_a, g. */
 #ifndef VEHIL_ESTIMATORS_UIIEKF_H
 #define VEHIL_ESTIMATORS_UIIEKF_H
 

@@ -30,6 +30,7 @@ import numpy as np
 
 from vehil.estimators import register
 from vehil.estimators._accel_conditioning import butter2
+from vehil.estimators._health import NisWindow, outside_3sigma
 from vehil.estimators.base import EstimatorSpec, Param, Signal
 
 # The low-pass's cutoff may reach 0.4 of the sample rate (0.8 of Nyquist): beyond it the
@@ -144,7 +145,7 @@ class AccKF:
         self.u_prev = 0.0
         self.w2_prev = 0.0  # ŵ_s(k-1), bias channel
         self.slip = 0.0
-        self.nis = 0.0  # the innovations' e²/S, averaged over nis_window
+        self.nis = NisWindow(self.p["T"], self.p["nis_window"])  # the innovations' e²/S
         self.diverged: list[bool] = []
         self.am_hist = [0.0, 0.0]  # a_m(k-1), a_m(k-2)
         self.af_hist = [0.0, 0.0]  # a_f(k-1), a_f(k-2)
@@ -197,10 +198,9 @@ class AccKF:
         )
         # Health (docs/estimators/acc_kf.md): the windowed NIS, and v̂ within 3σ of
         # [-v_guard, v_max] (near standstill the filter is not held to its speed).
-        self.nis += p["T"] / p["nis_window"] * (e * e / S - self.nis)
-        low = self.v + p["v_guard"]
-        out = low if low < 0 else max(self.v - p["v_max"], 0.0)
-        self.diverged.append(self.nis > p["nis_max"] or out * out > 9.0 * self.P[0, 0])
+        nis = self.nis.update(e * e / S)
+        off = outside_3sigma(self.v, -p["v_guard"], p["v_max"], self.P[0, 0])
+        self.diverged.append(nis > p["nis_max"] or off)
         a_f = self._lpf(a_m)
         self.w2_prev = p["rbar"] * (a_f - self.af_hist[1])
         if braking and self.v > p["v_guard"]:

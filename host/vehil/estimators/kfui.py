@@ -21,6 +21,7 @@ from scipy.linalg import expm
 
 from vehil.estimators import register
 from vehil.estimators._accel_conditioning import params as conditioning_params
+from vehil.estimators._health import NisWindow, nis_outside, outside_3sigma
 from vehil.estimators._suspension_control import PARAMS as CONTROL_PARAMS
 from vehil.estimators.base import EstimatorSpec, Param
 from vehil.estimators.eso import INPUTS, OUTPUTS, T_PARAM, Ecu, Measured
@@ -40,6 +41,10 @@ class KfUi:
         self.P = p["p0"] * np.eye(4)
         self.d = 0.0  # û*, the road input
         self.S = p["s0"]
+        self.x_max = p["x_max"]
+        self.nis = NisWindow(self.T, p["nis_window"])  # of the innovation's χ²(3)
+        self.nis_max = p["nis_max"]
+        self.diverged: list[bool] = []
 
     def h(self, x: np.ndarray, u: float, x_r: float) -> np.ndarray:
         """Eq. (39)."""
@@ -71,16 +76,38 @@ class KfUi:
         xb, F = self.predict(u)
         Pb = F @ self.P @ F.T + self.Q  # (28)
         H, D = self.H(xb), self.D
-        K = Pb @ H.T @ np.linalg.inv(self.R + H @ Pb @ H.T)  # (29)
-        W = self.Rinv @ (np.eye(4) - H @ K)
-        self.S = 1.0 / float(D @ W @ D)  # (30)
-        r = y - self.h(xb, u, self.d) + D * self.d
-        d = self.S * float(D @ W @ r)  # (31)
-        self.x = xb + K @ (y - self.h(xb, u, self.d) - D * (d - self.d))  # (32)
-        self.P = (
-            (np.eye(4) + np.outer(K @ D * self.S, D) @ self.Rinv @ H) @ (np.eye(4) - K @ H) @ Pb
-        )  # (33)
-        self.d = d
+        Sigma = self.R + H @ Pb @ H.T
+        try:
+            np.linalg.cholesky(Sigma)
+        except np.linalg.LinAlgError:  # as the board: SINGULAR, the prediction kept
+            self.x, self.P = xb, Pb
+        else:
+            Sigma_inv = np.linalg.inv(Sigma)
+            K = Pb @ H.T @ Sigma_inv  # (29)
+            W = self.Rinv @ (np.eye(4) - H @ K)
+            self.S = 1.0 / float(D @ W @ D)  # (30)
+            r = y - self.h(xb, u, self.d) + D * self.d
+            self.nis.update(nis_outside(r, Sigma_inv, D))  # the road takes D's part
+            d = self.S * float(D @ W @ r)  # (31)
+            self.x = xb + K @ (y - self.h(xb, u, self.d) - D * (d - self.d))  # (32)
+            self.P = (
+                (np.eye(4) + np.outer(K @ D * self.S, D) @ self.Rinv @ H) @ (np.eye(4) - K @ H) @ Pb
+            )  # (33)
+            self.d = d
+        self.diverged.append(not self.healthy())
+
+    def healthy(self) -> bool:
+        """The health check (docs/estimators/kfui.md, "Health")."""
+        x_max, x, P = self.x_max, self.x, self.P
+        return (
+            self.nis.mean <= self.nis_max
+            and bool(np.all(np.diag(P) >= 0.0))
+            and self.S >= 0.0
+            and not any(
+                outside_3sigma(v, -x_max, x_max, var)
+                for v, var in ((x[0], P[0, 0]), (x[2], P[2, 2]), (self.d, self.S))
+            )
+        )
 
     def update(self, m: Measured, u: float) -> None:
         self.step(np.array([m.y_s, m.a_s, m.y_us, m.a_us]), u)
@@ -111,6 +138,16 @@ SPEC = register(
             Param("r_a", "m^2/s^4", default=1.0, lo=1e-9, hi=1e3, doc="R: acceleration channels"),
             Param("p0", "1", default=1e-2, lo=0, hi=1e3, doc="P0 = p0 I"),
             Param("s0", "m^2", default=1.0, lo=0, hi=1e3, doc="S0"),
+            Param("nis_max", "1", default=1.0, lo=0.1, hi=1e6, doc="NIS mean that flags"),
+            Param("nis_window", "s", default=1.0, lo=0.05, hi=100.0, doc="NIS averaging time"),
+            Param(
+                "x_max",
+                "m",
+                default=0.3,
+                lo=0.01,
+                hi=10.0,
+                doc="plausible |x̂_s|, |x̂_us|, |x̂_r| (about the conditioned frame's zero)",
+            ),
             *conditioning_params(),
             *model_params(),
             *CONTROL_PARAMS,

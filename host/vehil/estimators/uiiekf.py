@@ -46,16 +46,17 @@ import numpy as np
 
 from vehil.braking_car import CAR_PARAMS, SURFACES, Car
 from vehil.estimators import register
+from vehil.estimators._health import NisWindow, nis_outside, outside_3sigma
 from vehil.estimators.base import EstimatorSpec, Param, Signal
 from vehil.estimators.manf import WHEEL_SPEEDS
 
 STATE_NAMES = {5: ("v_x", "v_y", "r", "omega_f", "omega_r"), 3: ("v_x", "omega_f", "omega_r")}
 # The car's values the filter takes: all of Table 2's (m ... l_r, then the yaw inertia and
-# the drag terms, appended so the wire order of the first keeps).
+# the drag terms and gravity, appended so the wire order of the first keeps).
 CAR = tuple(
     p for p in CAR_PARAMS if p.name in ("m", "r_w", "i_w", "k_b", "psi", "h_cg", "l_f", "l_r")
 )
-CAR_MORE = tuple(p for p in CAR_PARAMS if p.name in ("i_z", "rho", "c_d", "a_f", "h_a"))
+CAR_MORE = tuple(p for p in CAR_PARAMS if p.name in ("i_z", "rho", "c_d", "a_f", "h_a", "g"))
 DRY = SURFACES[0][1:]
 FULL = {5: [0, 1, 2, 3, 4], 3: [0, 3, 4]}  # the filter's states among the model's five
 
@@ -158,8 +159,7 @@ class Uiiekf:
         self.x: np.ndarray | None = None
         self.P = np.eye(n) * p["p0"]
         self.d_x = 0.0
-        self.nis = 0.0  # the windowed mean of the innovation's χ²(1)
-        self.alpha = self.T / p["nis_window"]
+        self.nis = NisWindow(self.T, p["nis_window"])  # of the innovation's χ²(1)
         self.c1_norm: list[float] = []
         self.eigenvalues: list[np.ndarray] = []
         self.diverged: list[bool] = []
@@ -178,22 +178,14 @@ class Uiiekf:
         self.d_x = dx[0]  # the model's deceleration, for the loads
         return x + self.T * dx, np.eye(self.n) + self.T * A
 
-    def _nis(self, e: np.ndarray, F_inv: np.ndarray, CB: np.ndarray) -> float:
-        """eᵀ F⁻¹ e less its part along C B (the unknown input's): a χ²(1) value."""
-        w = (F_inv @ CB)[:, 0]
-        return float(e @ F_inv @ e - (w @ e) ** 2 / (CB[:, 0] @ w))
-
     def _covariance_ok(self, P: np.ndarray) -> bool:
         return bool(P[0, 0] <= self.p["v_max"] ** 2 and np.all(np.diag(P) >= 0.0))
 
     def _estimate_ok(self, x: np.ndarray, P: np.ndarray) -> bool:
-        v, v_max = x[0], self.p["v_max"]
-        sigma3 = 3.0 * math.sqrt(max(P[0, 0], 0.0))
         return (
-            self.nis <= self.p["nis_max"]
+            self.nis.mean <= self.p["nis_max"]
             and self._covariance_ok(P)
-            and v + sigma3 >= 0.0
-            and v - sigma3 <= v_max
+            and not outside_3sigma(x[0], 0.0, self.p["v_max"], P[0, 0])
         )
 
     def step(self, u: np.ndarray) -> np.ndarray:
@@ -210,7 +202,7 @@ class Uiiekf:
         for i in range(passes):
             F_inv = np.linalg.inv(C @ P @ C.T + R)
             if i == 0 and self.car.r_w * max(z) >= self.p["v_min"]:
-                self.nis += self.alpha * (self._nis(z - C @ x, F_inv, CB) - self.nis)
+                self.nis.update(nis_outside(z - C @ x, F_inv, CB[:, 0]))
             K = P @ C.T @ F_inv
             L = K + (identity - K @ C) @ B @ np.linalg.inv(CB.T @ F_inv @ CB) @ CB.T @ F_inv
             x = x + L @ (z - C @ x)
