@@ -19,8 +19,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from vehil import estimators
-from vehil.build import registry
-from vehil.build.native import c_flags, source_dirs
+from vehil.build import native, registry
+from vehil.build.objects import Unit, compile_units, link
 from vehil.errors import BuildError
 from vehil.paths import BUILD_DIR, DATA_ROOT
 from vehil.protocol import frame as framing
@@ -47,29 +47,18 @@ def build() -> Path:
     cc = clang()
     if cc is None:
         raise BuildError("clang is not installed: `apt-get install clang libclang-rt-14-dev`")
-    sources = sorted(p for d in source_dirs() for p in d.rglob("*.c"))
+    cxx = shutil.which("clang++") or cc.replace("clang", "clang++")
     FUZZ_DIR.mkdir(parents=True, exist_ok=True)
-    exe = FUZZ_DIR / "fuzz_dispatch"
-    flags = [f for f in c_flags() if f != "-Werror"]  # clang warns about more than gcc
-    cmd = [
-        cc,
-        *flags,
-        "-g",
-        "-I",  # as the native build: every estimator
-        str(registry.write(FUZZ_DIR / "gen", registry.select("all")).parent),
-        "-fsanitize=fuzzer,address,undefined",
-        "-fno-sanitize-recover=all",
-        *(arg for d in source_dirs() for arg in ("-I", str(d))),  # native's port_tx.h too
-        "-o",
-        str(exe),
-        str(HARNESS),
-        *map(str, sources),
-        "-lm",
+    sanitizers = ["-fsanitize=fuzzer,address,undefined", "-fno-sanitize-recover=all"]
+    gen = registry.write(FUZZ_DIR / "gen", registry.select("all")).parent  # every estimator
+    todo = [
+        # clang warns about more than gcc: its warnings do not stop the fuzzer
+        Unit(u.source, (*(f for f in u.flags if f != "-Werror"), "-g", *sanitizers), u.cxx)
+        for u in native.units(gen, also=[HARNESS])
     ]
-    proc = subprocess.run(cmd, capture_output=True, text=True)
-    if proc.returncode != 0:
-        raise BuildError(f"fuzz harness build failed:\n{proc.stderr.strip()[-3000:]}")
-    return exe
+    objects = compile_units(todo, FUZZ_DIR / "obj", cc=cc, cxx=cxx)
+    driver = cxx if any(u.cxx for u in todo) else cc
+    return link(objects, FUZZ_DIR / "fuzz_dispatch", [driver, *sanitizers])
 
 
 def _frame(name: str, seq: int, **fields: object) -> bytes:

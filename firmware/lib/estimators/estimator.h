@@ -9,6 +9,10 @@
 #include "proto/messages.h"
 #include "rom/rom.h"
 
+#ifdef __cplusplus
+extern "C" { /* C linkage for C++ wrappers of vendored libraries */
+#endif
+
 #define ESTIMATOR_VALUE_SIZE 4u
 #define ESTIMATOR_ANY_LENGTH 0u /* n_inputs of an estimator that takes any body */
 #define ESTIMATOR_NAME_SIZE 16u /* the name's bytes, its NUL included */
@@ -45,5 +49,9 @@ uint8_t estimator_name(uint8_t index, uint8_t *buf);
 
 /* The one state area all estimators share (only one is configured at a time). */
 void *estimator_state(void);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif

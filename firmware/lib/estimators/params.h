@@ -7,6 +7,10 @@
 
 #include "rom/rom.h"
 
+#ifdef __cplusplus
+extern "C" { /* C linkage for C++ wrappers of vendored libraries */
+#endif
+
 /* One parameter's accepted range. Tables of them live in flash, declared
  * `static const ROM param_range_t name[N] = {{lo, hi, q}, ...};`, and are read only
  * through param_range_q and params_check (the fields' names say so: a plain read of
@@ -30,5 +34,9 @@ int32_t param_q(const uint8_t *params, uint8_t i);
 
 /* 0 if every parameter is finite and in range, else 1 + the first bad index. */
 uint8_t params_check(const uint8_t *params, uint8_t mode, const param_range_t *ranges, uint8_t n);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif

@@ -12,6 +12,10 @@
 
 #include "proto/messages.h"
 
+#ifdef __cplusplus
+extern "C" { /* C linkage for C++ wrappers of vendored libraries */
+#endif
+
 #define FX_MAX INT32_MAX
 #define FX_MIN INT32_MIN
 
@@ -431,5 +435,9 @@ int32_t fx_asin_q30(int32_t x, uint8_t *status);
 /* log2(x · 2^-q) in Q24 for x > 0 (x <= 0 gives INT32_MIN): the leading bit's position
  * and a 17-entry table with linear interpolation, |error| < 1e-3. */
 int32_t fx_log2_q24(int32_t x, uint8_t q);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif

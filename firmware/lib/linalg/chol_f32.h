@@ -5,6 +5,10 @@
 
 #include <stdint.h>
 
+#ifdef __cplusplus
+extern "C" { /* C linkage for C++ wrappers of vendored libraries */
+#endif
+
 #define CHOL_F32_MAX_N 7u
 
 /* L (lower, zero above the diagonal) with L Lᵀ = a into l; returns 0 if a pivot is not
@@ -21,5 +25,9 @@ uint8_t chol_solve_f32(float *a, float *b, uint8_t n, float *inv);
 /* [(L Lᵀ)⁻¹]_aa = ‖L⁻¹ e_a‖² from chol_solve_f32's factor l (n×n, lower) and inv: a
  * forward substitution from row a. */
 float chol_inv_diag_f32(const float *l, const float *inv, uint8_t n, uint8_t a);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif

@@ -9,6 +9,10 @@
 
 #include <stdint.h>
 
+#ifdef __cplusplus
+extern "C" { /* C linkage for C++ wrappers of vendored libraries */
+#endif
+
 #define CHOL_Q15_MAX_N 6u
 
 /* Solves a x = b (a row-major n×n, Q30, its lower triangle read, diagonal < 1): x
@@ -23,5 +27,9 @@ uint8_t chol_solve_q15(const int32_t *a, int32_t *b, uint8_t n, int16_t *l, int3
  * substitution from row a, every entry within ±1. */
 int32_t chol_inv_diag_q15(const int16_t *l, const int32_t *inv, uint8_t n, uint8_t a, int32_t s,
                           uint8_t *status);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif

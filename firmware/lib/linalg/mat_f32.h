@@ -6,6 +6,10 @@
 
 #include <stdint.h>
 
+#ifdef __cplusplus
+extern "C" { /* C linkage for C++ wrappers of vendored libraries */
+#endif
+
 /* C (n×p) = A (n×m) · B (m×p); C must not alias A or B. */
 void mat_mul_f32(const float *a, const float *b, uint8_t n, uint8_t m, uint8_t p, float *c);
 
@@ -14,5 +18,9 @@ void mat_mul_bt_f32(const float *a, const float *b, uint8_t n, uint8_t m, uint8_
 
 /* Inverse of a 2×2 in place; returns 0 if singular (|det| below tiny), else 1. */
 uint8_t mat_inv2_f32(float *a);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif

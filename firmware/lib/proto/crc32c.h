@@ -8,6 +8,10 @@
 
 #include <stdint.h>
 
+#ifdef __cplusplus
+extern "C" { /* C linkage for C++ wrappers of vendored libraries */
+#endif
+
 #define CRC32C_INIT 0xFFFFFFFFu
 #define CRC32C_XOROUT 0xFFFFFFFFu
 /* The register after a frame's bytes followed by its own CRC (little-endian): a
@@ -45,6 +49,10 @@ extern const uint32_t crc32c_table[256];
 static inline uint32_t crc32c_update(uint32_t crc, uint8_t byte)
 {
     return crc32c_table[(uint8_t)(crc ^ byte)] ^ (crc >> 8);
+}
+#endif
+
+#ifdef __cplusplus
 }
 #endif
 

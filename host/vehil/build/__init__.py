@@ -64,9 +64,7 @@ def build(parts: Sequence[str] | None = None, *, verbose: bool = False) -> dict[
     else:
         chosen, c_sources = project_image(here), here.c_sources
         steps = {
-            "firmware": lambda: build_image(
-                chosen, c_sources, key=PROJECT_IMAGE, verbose=verbose
-            ),
+            "firmware": lambda: build_image(chosen, c_sources, key=PROJECT_IMAGE, verbose=verbose),
             "native": lambda: build_native(chosen, c_sources, verbose=verbose),
         }
     steps["sim"] = lambda: build_simavr_bridge(verbose=verbose)

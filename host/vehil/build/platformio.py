@@ -20,6 +20,7 @@ from pathlib import Path
 
 from platformio.dependencies import get_core_dependencies
 
+from vehil.build import vendored
 from vehil.errors import BuildError
 from vehil.paths import DATA_ROOT, PIO_WORKSPACE, image_elf
 
@@ -119,6 +120,7 @@ def build_image(
     text = (
         f"{base}\n[env:image]\nextends = env:offline\ncustom_estimators = {estimators}\n"
         f"custom_c_sources = {' '.join(map(str, c_sources))}\n"
+        f"custom_vendored = {' '.join(map(str, vendored.roots()))}\n"
     )
     if not ini.exists() or ini.read_text() != text:
         ini.write_text(text)
