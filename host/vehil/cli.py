@@ -253,6 +253,23 @@ def cmd_build(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_new(args: argparse.Namespace) -> int:
+    from vehil import skeleton
+
+    if args.what == "project":
+        written = skeleton.new_project(Path(args.name or "."), args.project_name)
+        then = "cd into it, then `vehil new estimator NAME`"
+    else:
+        if not args.name:
+            raise skeleton.SkeletonError("give the estimator's name: vehil new estimator NAME")
+        written = skeleton.new_estimator(args.name, args.title)
+        then = f"`vehil build`, then `vehil run {args.name}/sine-fixed --board simavr` or `pytest`"
+    for path in written:
+        console.print(f"[green]wrote[/] {path}")
+    console.print(f"next: {then}")
+    return 0
+
+
 def cmd_info(args: argparse.Namespace) -> int:
     with _connect(args) as link:
         _maybe_switch_baud(link, args.baud)
@@ -826,6 +843,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--only", action="append", choices=("firmware", "firmware-ev", "sim", "native"))
     p.add_argument("--verbose", action="store_true")
     p.set_defaults(func=cmd_build)
+
+    p = sub.add_parser(
+        "new", help="write a project (vehil.toml) or an estimator that builds and passes as written"
+    )
+    p.add_argument("what", choices=("project", "estimator"))
+    p.add_argument("name", nargs="?", help="project: its folder (default .); estimator: its name")
+    p.add_argument("--title", help="estimator: a one-line title")
+    p.add_argument("--project-name", help="project: its name (default: the folder's)")
+    p.set_defaults(func=cmd_new)
 
     p = sub.add_parser("info", help="connect to a board and show what it reports")
     _add_board_options(p)

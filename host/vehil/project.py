@@ -56,8 +56,8 @@ def _paths(root: Path, where: str, key: str, value: Any) -> tuple[Path, ...]:
     found: list[Path] = []
     for pattern in value:
         matches = sorted(root.glob(pattern))
-        if not matches:
-            raise ProjectError(f"{where}: project.{key}: {pattern!r} matches no file under {root}")
+        if not matches and not any(c in pattern for c in "*?["):  # a glob may match none yet
+            raise ProjectError(f"{where}: project.{key}: no file {root / pattern}")
         bad = [m for m in matches if m.suffix != ".py"]
         if bad:
             raise ProjectError(f"{where}: project.{key}: {bad[0]} is not a Python module")

@@ -110,11 +110,13 @@ def test_a_packaged_plugin_registers_through_its_entry_point(tmp_path) -> None:
             r"project.estimator: unknown key; allowed: c_sources, estimators",
         ),
         (
-            '[project]\nestimators = ["nothing/*.py"]\n',
-            r"project.estimators: 'nothing/\*.py' matches no",
+            '[project]\nestimators = ["nothing/x.py"]\n',
+            r"project.estimators: no file .*nothing/x.py",
         ),
         ('[project]\nestimators = "specs/blend.py"\n', r"project.estimators: a list of paths"),
         ('[project]\nscenarios = "nowhere"\n', r"project.scenarios: no folder"),
+        ('[project]\nc_sources = ["nowhere"]\n', r"project.c_sources: no folder .*nowhere"),
+        ('[project]\nimage = 3\n', r"project.image: estimator names"),
         ("[projet]\n", r"give one \[project\] table"),
     ],
 )
@@ -132,3 +134,21 @@ def test_a_spec_module_that_fails_is_named(tmp_path) -> None:
     assert f"{root / 'specs' / 'broken.py'}: importing the estimator module failed" in (
         listed.stdout + listed.stderr
     )
+
+
+def test_vehil_new_refuses_what_it_cannot_write_and_says_why(tmp_path) -> None:
+    outside = _vehil(tmp_path, "new", "estimator", "smooth")
+    assert outside.returncode == 2 and "run `vehil new project` first" in outside.stdout
+    assert _vehil(tmp_path, "new", "project", "p").returncode == 0
+    root = tmp_path / "p"
+    assert project.parse(root / "vehil.toml").c_sources == ((root / "c").resolve(),)
+    bad = _vehil(root, "new", "estimator", "Smooth-1")
+    assert bad.returncode == 2 and "lower-case letters, digits and _" in bad.stdout
+    taken = _vehil(root, "new", "estimator", "manf")
+    assert taken.returncode == 2 and "'manf' is taken" in taken.stdout
+    (root / "c" / "smooth.c").write_text("/* mine */\n")
+    clash = _vehil(root, "new", "estimator", "smooth")
+    assert clash.returncode == 2 and "smooth.c exists already: nothing written" in clash.stdout
+    assert not (root / "specs" / "smooth.py").exists()
+    again = _vehil(tmp_path, "new", "project", "p")
+    assert again.returncode == 2 and "vehil.toml exists already" in again.stdout

@@ -33,19 +33,13 @@ def build_simavr_bridge(*, verbose: bool = False) -> Path:
 
 def project_image(here: project.Project) -> str:
     """The estimators a project's image holds: its vehil.toml's `image`, or else every
-    estimator its own C declares (and passthrough, the link's)."""
+    estimator its own C declares, and passthrough (the link's) in any case."""
     if here.image is not None:
         return here.image
     from vehil.build import registry
 
     own = [n for n in registry.available(here.c_sources) if n not in registry.available()]
-    if not own:
-        raise BuildError(
-            f"{here.root / project.FILE_NAME}: no estimator in project.c_sources "
-            f"({', '.join(map(str, here.c_sources)) or 'none given'}): give the folders of "
-            "your estimators' C, or name the image's estimators in project.image"
-        )
-    return " ".join(own)
+    return " ".join([registry.FIRST, *own])
 
 
 def default_parts() -> tuple[str, ...]:
