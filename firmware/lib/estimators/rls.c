@@ -75,7 +75,7 @@ static int32_t shift(int32_t v, int16_t n, uint8_t *st)
 /* a b 2^-n for a shift n known only at run time, rounded half up, saturated: on the AVR
  * through fixmath's assembly entry for that shift (fx_mul_shr_n, the same bits as its C
  * twin); past those shifts by a shift of the result. */
-static int32_t mul_shr(int32_t a, int32_t b, int16_t n, uint8_t *st)
+FX_INLINE int32_t mul_shr(int32_t a, int32_t b, int16_t n, uint8_t *st)
 {
     if (n < 1) {
         return shift(fx_mul_shr(a, b, 1, st), (int16_t)(1 - n), st);
@@ -111,7 +111,7 @@ static const ROM ROM_TABLE(int32_t, 129) recip_table = {{
     541098242, 538976288, 536870912,
 }};
 
-static int32_t reciprocal(int32_t s, uint8_t *st)
+FX_INLINE int32_t reciprocal(int32_t s, uint8_t *st)
 {
     uint32_t x = (uint32_t)s - ((uint32_t)1 << 29);
     uint16_t xh = (uint16_t)(x >> 16), xm = (uint16_t)(x >> 8); /* byte moves */
@@ -225,7 +225,7 @@ static uint8_t rls_configure(void *state, uint8_t mode, const uint8_t *params)
     return 0;
 }
 
-static uint8_t step_f32(rls_state_t *s, const uint8_t *in, uint8_t *out)
+__attribute__((noinline)) static uint8_t step_f32(rls_state_t *s, const uint8_t *in, uint8_t *out)
 {
     float psi[3], z;
     float *theta = s->u.f32.theta, *P = s->u.f32.P;
@@ -303,29 +303,56 @@ static uint8_t past_cap(const rls_state_t *s, uint8_t i, uint8_t *st)
     return k == 0 ? p > cap : (k > 0 ? p > (cap >> 2) : (p >> 2) > cap);
 }
 
+/* θ += 2^(e - k) t err and P̃ -= t ŵᵀ 2^-n_p, k = top + g - gw and n_p = 27 - 2 gw + g
+ * (update_q's names): its own function, so that neither frame passes the 63 bytes the
+ * AVR reaches from Y in one instruction. */
+__attribute__((noinline)) static void correct(rls_state_t *s, const int32_t *t, const int32_t *w,
+                                              int32_t err, int16_t k, int16_t n_p, uint8_t *st)
+{
+    int32_t *theta = s->u.q.theta, *P = s->u.q.P;
+    const int8_t *e = s->u.q.e;
+    /* θ += k err, k = 2^(e - top - g + gw) t, err as err_m 2^(n_err - ERR_Q), err_m in
+     * [1/2, 1) (Q30): one multiply, its shift from the exponents. */
+    if (err != 0) {
+        uint8_t n_err = longit_bit_length(magnitude(err));
+        int32_t err_m = scale(err, (int16_t)(30 - n_err));
+        for (uint8_t i = 0; i < 3u; i++) {
+            int16_t n = (int16_t)(57 - theta_q[i] - e[i] + k - n_err + ERR_Q);
+            theta[i] = fx_add(theta[i], mul_shr(t[i], err_m, n, st), st);
+        }
+    }
+    /* P̃ - w̃ w̃ᵀ / s = P̃ - t ŵᵀ 2^(2 gw - g), whose entries are at most sqrt(P̃_ii P̃_jj) < 1. */
+    int32_t *p = P; /* the lower triangle row by row is P's packed order */
+    for (uint8_t i = 0; i < 3u; i++) {
+        for (uint8_t j = 0; j <= i; j++, p++) {
+            *p = fx_sub(*p, mul_shr(t[i], w[j], n_p, st), st);
+        }
+    }
+}
+
 /* Note §3's update with P as P̃ 2^(e_i + e_j) (rls.h): u = 2^e ψ as ũ 2^top (Q30, its
  * largest entry in [1/2, 1)), w̃ = P̃ ũ, so Pψ = 2^(e + top) w̃ and λ + ψᵀPψ =
  * 2^(2 top) s, s = l 2^(-2 top) + ũᵀw̃, held as s_m 2^g; the gain is
  * k = 2^(e - top) w̃ / s, and P - Pψ(Pψ)ᵀ/d is P̃ - w̃ w̃ᵀ / s in P̃'s units. */
-static void update_q(rls_state_t *s, const int32_t *x, uint8_t *status)
+__attribute__((noinline)) static void update_q(rls_state_t *s, const int32_t *x, uint8_t *status)
 {
     int32_t *theta = s->u.q.theta, *P = s->u.q.P;
     int8_t *e = s->u.q.e;
     uint8_t st = 0;
-    const int32_t psi[3] = {x[0], x[1], s->u.q.shared.g_cos};
+    int32_t u[3] = {x[0], x[1], s->u.q.shared.g_cos}, w[3]; /* ψ, then ũ, then t */
+    int32_t *t = u;
     int32_t err = fx_rescale(x[2], 14, ERR_Q, &st);
-    err = fx_sub(err, fx_mul_shr(psi[0], theta[0], 24 + 16 - ERR_Q, &st), &st);
-    err = fx_sub(err, fx_mul_shr(psi[1], theta[1], 18 + 20 - ERR_Q, &st), &st);
-    err = fx_sub(err, fx_mul_shr(psi[2], theta[2], 26 + 16 - ERR_Q, &st), &st);
+    err = fx_sub(err, fx_mul_shr(u[0], theta[0], 24 + 16 - ERR_Q, &st), &st);
+    err = fx_sub(err, fx_mul_shr(u[1], theta[1], 18 + 20 - ERR_Q, &st), &st);
+    err = fx_sub(err, fx_mul_shr(u[2], theta[2], 26 + 16 - ERR_Q, &st), &st);
 
     int16_t top = INT16_MIN;
     for (uint8_t j = 0; j < 3u; j++) { /* g' > 0: top is set */
-        int16_t b = (int16_t)(longit_bit_length(magnitude(psi[j])) - psi_q[j] + e[j]);
-        top = psi[j] != 0 && b > top ? b : top;
+        int16_t b = (int16_t)(longit_bit_length(magnitude(u[j])) - psi_q[j] + e[j]);
+        top = u[j] != 0 && b > top ? b : top;
     }
-    int32_t u[3], w[3], t[3];
     for (uint8_t j = 0; j < 3u; j++) {
-        u[j] = scale(psi[j], (int16_t)(30 - psi_q[j] + e[j] - top)); /* |ψ_j| 2^e_j <= 2^top */
+        u[j] = scale(u[j], (int16_t)(30 - psi_q[j] + e[j] - top)); /* |ψ_j| 2^e_j <= 2^top */
     }
     /* w̃ = P̃ ũ, Q29 (|P̃_ij| < 1, |ũ_j| < 1), written out: the AVR pays for at[][] lookups. */
     w[0] = fx_mul_shr(P[0], u[0], 31, &st) + fx_mul_shr(P[1], u[1], 31, &st) +
@@ -360,24 +387,7 @@ static void update_q(rls_state_t *s, const int32_t *x, uint8_t *status)
     for (uint8_t i = 0; i < 3u; i++) {
         t[i] = fx_mul_shr(w[i], r, 32, &st); /* ŵ / s_m, Q27: < 2 */
     }
-    /* θ += k err, k = 2^(e - top - g + gw) t, err as err_m 2^(n_err - ERR_Q), err_m in
-     * [1/2, 1) (Q30): one multiply, its shift from the exponents. */
-    if (err != 0) {
-        uint8_t n_err = longit_bit_length(magnitude(err));
-        int32_t err_m = scale(err, (int16_t)(30 - n_err));
-        for (uint8_t i = 0; i < 3u; i++) {
-            int16_t n = (int16_t)(57 - theta_q[i] - e[i] + top + g - gw - n_err + ERR_Q);
-            theta[i] = fx_add(theta[i], mul_shr(t[i], err_m, n, &st), &st);
-        }
-    }
-    /* P̃ - w̃ w̃ᵀ / s = P̃ - t ŵᵀ 2^(2 gw - g), whose entries are at most sqrt(P̃_ii P̃_jj) < 1. */
-    int16_t n_p = (int16_t)(27 - 2 * gw + g);
-    int32_t *p = P; /* the lower triangle row by row is P's packed order */
-    for (uint8_t i = 0; i < 3u; i++) {
-        for (uint8_t j = 0; j <= i; j++, p++) {
-            *p = fx_sub(*p, mul_shr(t[i], w[j], n_p, &st), &st);
-        }
-    }
+    correct(s, t, w, err, (int16_t)(top + g - gw), (int16_t)(27 - 2 * gw + g), &st);
     uint8_t forget = renormalise(P, e, &st);
     if (!forget) {
         reset_covariance(s);
