@@ -21,12 +21,12 @@ estimate to settle; it decelerates without the brake, so the wheels do not slip)
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 
 import numpy as np
 
 from vehil.plants import register
-from vehil.plants.base import PlantSpec, Trace
+from vehil.plants.base import NoiseBlocks, PlantSpec, Trace, chunk_times, joined
 from vehil.spec import Param, Signal
 
 G = 9.81
@@ -66,48 +66,51 @@ PROFILES: dict[int, tuple[float, tuple[tuple[float, float, bool], ...]]] = {
 }
 
 
-def _simulate(p: Mapping[str, float], duration: float, T: float, seed: int) -> Trace:
-    rng = np.random.default_rng(seed)
+def _stream(
+    p: Mapping[str, float], duration: float, T: float, seed: int, chunk: int
+) -> Iterator[Trace]:
     v0, phases = PROFILES[int(p["profile"])]
     v0 = p["v0"] if p["v0"] > 0 else v0
     n = int(round(duration / T))
-    t = np.arange(n) * T
+    noise = NoiseBlocks(np.random.default_rng(seed), n, 3)  # a_m, omega_l, omega_r
     edges = np.cumsum([0.0] + [ph[0] for ph in phases])
-    idx = np.clip(np.searchsorted(edges, t, side="right") - 1, 0, len(phases) - 1)
-    a_cmd = np.array([phases[i][1] for i in idx])
-    brake = np.array([phases[i][2] for i in idx], dtype=float)
-    # Past the profile's end the car cruises.
-    a_cmd[t >= edges[-1]] = 0.0
-    brake[t >= edges[-1]] = 0.0
-    a = np.empty(n)
-    v = np.empty(n)
     a_prev, v_prev = 0.0, v0
     alpha = T / (ACCEL_LAG_S + T)
-    for k in range(n):
-        a_k = a_prev + alpha * (a_cmd[k] - a_prev)
-        if v_prev <= 0.0 and a_k < 0.0:  # stopped: brakes hold, nothing moves
-            a_k = 0.0
-        v_k = max(0.0, v_prev + T * a_k)
-        a[k], v[k] = a_k, v_prev
-        a_prev, v_prev = a_k, v_k
-    moving_brake = brake * (v > 0.05)
-    bias = (
-        p["bias0"]
-        + p["r_pitch"] * a
-        + p["drift"] * t / 60.0
-        + G * np.sin(np.arctan(p["grade_pct"] / 100.0))
-    )
-    a_m = a + bias + rng.normal(0.0, p["accel_noise"], n)
-    slip = np.clip(p["k_slip"] * np.abs(a) * moving_brake, 0.0, 0.95)
-    r_w = p["r_w"]
-    wheel = v * (1.0 - slip) / r_w
-    w_l = wheel * (1 + p["radius_mismatch"]) + rng.normal(0.0, p["wheel_noise"], n)
-    w_r = wheel * (1 - p["radius_mismatch"]) + rng.normal(0.0, p["wheel_noise"], n)
-    return Trace(
-        t=t,
-        signals={"a_m": a_m, "omega_l": w_l, "omega_r": w_r, "brake": brake, "a": a},
-        truth={"v": v, "a0": bias},
-    )
+    for t in chunk_times(n, T, chunk):
+        m = len(t)
+        idx = np.clip(np.searchsorted(edges, t, side="right") - 1, 0, len(phases) - 1)
+        a_cmd = np.array([phases[i][1] for i in idx])
+        brake = np.array([phases[i][2] for i in idx], dtype=float)
+        # Past the profile's end the car cruises.
+        a_cmd[t >= edges[-1]] = 0.0
+        brake[t >= edges[-1]] = 0.0
+        a = np.empty(m)
+        v = np.empty(m)
+        for k in range(m):
+            a_k = a_prev + alpha * (a_cmd[k] - a_prev)
+            if v_prev <= 0.0 and a_k < 0.0:  # stopped: brakes hold, nothing moves
+                a_k = 0.0
+            v_k = max(0.0, v_prev + T * a_k)
+            a[k], v[k] = a_k, v_prev
+            a_prev, v_prev = a_k, v_k
+        moving_brake = brake * (v > 0.05)
+        bias = (
+            p["bias0"]
+            + p["r_pitch"] * a
+            + p["drift"] * t / 60.0
+            + G * np.sin(np.arctan(p["grade_pct"] / 100.0))
+        )
+        a_m = a + bias + noise.normal(0, p["accel_noise"], m)
+        slip = np.clip(p["k_slip"] * np.abs(a) * moving_brake, 0.0, 0.95)
+        r_w = p["r_w"]
+        wheel = v * (1.0 - slip) / r_w
+        w_l = wheel * (1 + p["radius_mismatch"]) + noise.normal(1, p["wheel_noise"], m)
+        w_r = wheel * (1 - p["radius_mismatch"]) + noise.normal(2, p["wheel_noise"], m)
+        yield Trace(
+            t=t,
+            signals={"a_m": a_m, "omega_l": w_l, "omega_r": w_r, "brake": brake, "a": a},
+            truth={"v": v, "a0": bias},
+        )
 
 
 SPEC = register(
@@ -142,6 +145,7 @@ SPEC = register(
             Signal("a", "m/s^2", doc="true acceleration (for plots)"),
         ),
         truth=(Signal("v", "m/s"), Signal("a0", "m/s^2")),
-        simulate=_simulate,
+        simulate=joined(_stream),
+        stream=_stream,
     )
 )

@@ -12,7 +12,8 @@ runner steps one sample at a time, applying the board's outputs named in
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator, Mapping
+import copy
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Protocol
@@ -139,11 +140,41 @@ def joined(
     """A streaming plant's whole drive: its chunks end to end."""
 
     def simulate(p: Mapping[str, Any], duration: float, T: float, seed: int) -> Trace:
-        pieces = list(stream(p, duration, T, seed, 1 << 16))
-        return Trace(
-            t=np.concatenate([x.t for x in pieces]),
-            signals={n: np.concatenate([x.signals[n] for x in pieces]) for n in pieces[0].signals},
-            truth={n: np.concatenate([x.truth[n] for x in pieces]) for n in pieces[0].truth},
-        )
+        return join(stream(p, duration, T, seed, 1 << 16))
 
     return simulate
+
+
+def join(pieces: Iterable[Trace]) -> Trace:
+    """Chunks of a drive end to end."""
+    got = list(pieces)
+    return Trace(
+        t=np.concatenate([x.t for x in got]),
+        signals={n: np.concatenate([x.signals[n] for x in got]) for n in got[0].signals},
+        truth={n: np.concatenate([x.truth[n] for x in got]) for n in got[0].truth},
+    )
+
+
+def chunk_times(n: int, T: float, chunk: int) -> Iterator[np.ndarray]:
+    """The sample times of an n-sample drive, `chunk` at a time."""
+    for k0 in range(0, n, chunk):
+        yield np.arange(k0, min(n, k0 + chunk)) * T
+
+
+class NoiseBlocks:
+    """White noise a plant draws for the whole drive, one signal's block after another from
+    one generator, handed out a chunk at a time with the very same values: a copy of the
+    generator is set at each block's start by drawing (and dropping) the blocks before it.
+    Memory is a chunk's; the cost is one more pass of draws. The generator is left after
+    the last block, as drawing them whole would leave it."""
+
+    def __init__(self, rng: np.random.Generator, n: int, blocks: int):
+        self._at = []
+        for _ in range(blocks):
+            self._at.append(copy.deepcopy(rng))
+            for k0 in range(0, n, 1 << 16):
+                rng.standard_normal(min(1 << 16, n - k0))
+
+    def normal(self, block: int, scale: float, m: int) -> np.ndarray:
+        """The block's next m values, N(0, scale²)."""
+        return self._at[block].normal(0.0, scale, m)

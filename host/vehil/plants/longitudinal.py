@@ -45,15 +45,15 @@ on v, 0.1 m/s² on v̇, 10 N on z) instead of the paper's σ_N on z alone.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-from dataclasses import dataclass
+import copy
+from collections.abc import Callable, Iterator, Mapping
 from typing import Any
 
 import numpy as np
 from scipy.interpolate import CubicSpline
 
 from vehil.plants import register
-from vehil.plants.base import FileInput, PlantSpec, Trace
+from vehil.plants.base import FileInput, NoiseBlocks, PlantSpec, Trace, chunk_times, joined
 from vehil.spec import Param, Signal
 
 # Table 1 and note §1.3.
@@ -109,14 +109,6 @@ def shift(gear: int, v: float, throttle: float) -> int:
     return gear
 
 
-@dataclass
-class Road:
-    """Grade against time (rad), and the GPS log it came from (for plots and CSV)."""
-
-    grade: np.ndarray
-    gps: dict[str, np.ndarray]
-
-
 def altitude(x: np.ndarray) -> np.ndarray:
     """The hilly street: altitude (m) against distance (m); steepest near the start."""
     return (
@@ -127,8 +119,8 @@ def altitude(x: np.ndarray) -> np.ndarray:
     )
 
 
-def gps_road(duration: float, T: float, rng: np.random.Generator, smooth: bool) -> Road:
-    """Note §5.1's pipeline on a simulated 1 s GPS log of a drive along the street."""
+def gps_log(duration: float, rng: np.random.Generator) -> dict[str, np.ndarray]:
+    """A simulated 1 s GPS log of a drive along the street, for note §5.1's pipeline."""
     t_gps = np.arange(0.0, duration + 2.0, 1.0)
     # The GPS car: from rest to ~70 km/h, easing off over the crests: ~1.3 km in 75 s.
     v_true = 19.5 * (1 - np.exp(-t_gps / 9.0)) * (1 + 0.12 * np.sin(2 * np.pi * t_gps / 31.0))
@@ -139,10 +131,7 @@ def gps_road(duration: float, T: float, rng: np.random.Generator, smooth: bool) 
     lost[[0, -1]] = False
     speed = np.interp(t_gps, t_gps[~lost], speed[~lost])
     alt = np.interp(t_gps, t_gps[~lost], alt[~lost])
-    return Road(
-        grade=np.deg2rad(process_gps(t_gps, speed, alt, np.arange(0.0, duration, T), smooth)),
-        gps={"t": t_gps, "speed": speed, "altitude": alt, "distance": x_true},
-    )
+    return {"t": t_gps, "speed": speed, "altitude": alt, "distance": x_true}
 
 
 def process_gps(
@@ -150,6 +139,13 @@ def process_gps(
 ) -> np.ndarray:
     """Grade (deg) at t_out from a GPS log: eq. 28 on the speed, distance, eq. 29, then
     resampled linearly (kinks every second) or by a cubic spline (smooth)."""
+    return gps_grade(t, speed, alt, smooth)(t_out)
+
+
+def gps_grade(
+    t: np.ndarray, speed: np.ndarray, alt: np.ndarray, smooth: bool
+) -> Callable[[np.ndarray], np.ndarray]:
+    """process_gps's grade (deg) as a function of time, for a drive made in chunks."""
     k = 4
     v_avg = np.convolve(speed, np.ones(k) / k)[: len(speed)]
     v_avg[: k - 1] = np.cumsum(speed[: k - 1]) / np.arange(1, k)
@@ -159,8 +155,8 @@ def process_gps(
     beta[dx < 0.5] = 0.0  # standing still: no grade from GPS noise
     beta = np.append(beta, beta[-1])
     if smooth:
-        return CubicSpline(t, beta)(t_out)
-    return np.interp(t_out, t, beta)
+        return CubicSpline(t, beta)
+    return lambda t_out: np.interp(t_out, t, beta)
 
 
 def throttle_trace(profile: int, t: np.ndarray) -> np.ndarray:
@@ -174,82 +170,101 @@ def throttle_trace(profile: int, t: np.ndarray) -> np.ndarray:
     return np.where((t // 4.0) % 2 == 0, 0.7, 0.05)
 
 
-def dither(n: int, T: float, amplitude: float, rng: np.random.Generator) -> np.ndarray:
-    """±amplitude with sign flips every 20-40 ms."""
-    out = np.empty(n)
-    k, sign = 0, 1.0
-    while k < n:
-        hold = max(1, int(round(rng.uniform(0.02, 0.04) / T)))
-        out[k : k + hold] = sign * amplitude
-        k, sign = k + hold, -sign
-    return out
+class Dither:
+    """±amplitude with sign flips every 20-40 ms, `take(m)` samples at a time."""
+
+    def __init__(self, T: float, amplitude: float, rng: np.random.Generator):
+        self.T, self.amplitude, self.rng = T, amplitude, rng
+        self.sign, self.left = -1.0, 0  # the current hold's sign and samples still to go
+
+    def take(self, m: int) -> np.ndarray:
+        out = np.empty(m)
+        k = 0
+        while k < m:
+            if self.left == 0:  # a new hold, of the other sign (the first is +)
+                self.sign = -self.sign
+                self.left = max(1, int(round(self.rng.uniform(0.02, 0.04) / self.T)))
+            step = min(self.left, m - k)
+            out[k : k + step] = self.sign * self.amplitude
+            k, self.left = k + step, self.left - step
+        return out
 
 
-def _simulate(p: Mapping[str, Any], duration: float, T: float, seed: int) -> Trace:
+def _grade(
+    p: Mapping[str, Any], duration: float, rng: np.random.Generator
+) -> Callable[[np.ndarray], np.ndarray]:
+    """The road's grade (rad) as a function of time."""
+    gps = p.get("gps")
+    road = int(p["road"])
+    if gps is not None:
+        f = gps_grade(gps["t"] - gps["t"][0], gps["speed"], gps["altitude"], p["resample"] >= 0.5)
+        return lambda t: np.deg2rad(f(t))
+    if road == 0:
+        log = gps_log(duration, rng)
+        f = gps_grade(log["t"], log["speed"], log["altitude"], p["resample"] >= 0.5)
+        return lambda t: np.deg2rad(f(t))
+    if road == 1:
+        return np.zeros_like
+    return lambda t: np.deg2rad(p["grade_deg"]) * np.sin(p["grade_rad_s"] * t)
+
+
+def _stream(
+    p: Mapping[str, Any], duration: float, T: float, seed: int, chunk: int
+) -> Iterator[Trace]:
     rng = np.random.default_rng(seed)
     n = int(round(duration / T))
-    t = np.arange(n) * T
-    road = int(p["road"])
-    gps = p.get("gps")
-    if gps is not None:
-        t_log = gps["t"] - gps["t"][0]
-        grade = np.deg2rad(
-            process_gps(t_log, gps["speed"], gps["altitude"], t, p["resample"] >= 0.5)
-        )
-    elif road == 0:
-        grade = gps_road(duration, T, rng, p["resample"] >= 0.5).grade[:n]
-    elif road == 1:
-        grade = np.zeros(n)
-    else:
-        grade = np.deg2rad(p["grade_deg"]) * np.sin(p["grade_rad_s"] * t)
-    throttle = np.clip(
-        throttle_trace(int(p["profile"]), t) + dither(n, T, p["dither"], rng), 0.0, 1.0
-    )
-    mass = np.where(t >= p["t_mass"], p["mass"] + p["mass_step"], p["mass"])
-    cda = p["cda"]
-    p_brake = np.where((t >= p["t_brake"]) & (t < p["t_brake"] + 3.0), p["brake_mpa"], 0.0)
-    throttle[p_brake > 0] = 0.0
-
-    v, w_e, gear = 0.0, IDLE_RPM * RPM, 0
-    out = np.zeros((n, 5))  # v, v̇, F_x, gear, engine rpm
-    prev = None
-    for k in range(n):
-        gear = shift(gear, v, float(throttle[k]))
-        w_in = GEARS[gear] * R_FD * v / R_W
-        t_i, t_t = converter(w_e, w_in)
-        dw = (engine_torque(float(throttle[k]), w_e) - t_i) / I_EI
-        t_b = K_B * p_brake[k] if v > 0 else 0.0
-        f_x = (GEARS[gear] * R_FD * t_t - t_b) / R_W  # eq. 5, brake against motion
-        resist = 0.5 * cda * RHO * v * v + mass[k] * G * (
-            F_ROLL * np.cos(grade[k]) + np.sin(grade[k])
-        )
-        dv = (f_x - resist) / mass[k]
-        if v <= 0.0 and dv < 0.0:  # at rest: the brake/static friction holds the car
-            dv = 0.0
-        out[k] = v, dv, f_x, gear + 1, w_e / RPM
-        d = np.array([dv, dw])
-        step = T * d if prev is None else T * (1.5 * d - 0.5 * prev)  # eq. 30
-        prev = d
-        v, w_e = max(v + step[0], 0.0), max(w_e + step[1], 1.0)
+    grade_at = _grade(p, duration, rng)
+    dither = Dither(T, p["dither"], copy.deepcopy(rng))
+    Dither(T, p["dither"], rng).take(n)  # the noise is drawn after the whole drive's dither
+    noise = NoiseBlocks(rng, n, 3)  # v, v̇, z
     noisy = p["noise"] >= 0.5
     sd_v, sd_a, sd_z = (0.05, 0.1, 10.0) if noisy else (0.0, 0.0, p["sigma_n"])
-    return Trace(
-        t=t,
-        signals={
-            "v": out[:, 0] + rng.normal(0.0, sd_v, n) * (sd_v > 0),
-            "v_dot": out[:, 1] + rng.normal(0.0, sd_a, n) * (sd_a > 0),
-            "z": out[:, 2] + rng.normal(0.0, 1.0, n) * sd_z,
-            "throttle": throttle,
-            "gear": out[:, 3],
-            "engine_rpm": out[:, 4],
-        },
-        truth={
-            "m": mass,
-            "cda": np.full(n, cda),
-            "grade": np.degrees(grade),
-            "v_true": out[:, 0],
-        },
-    )
+    cda = p["cda"]
+    v, w_e, gear = 0.0, IDLE_RPM * RPM, 0
+    prev = None
+    for t in chunk_times(n, T, chunk):
+        m = len(t)
+        grade = grade_at(t)
+        throttle = np.clip(throttle_trace(int(p["profile"]), t) + dither.take(m), 0.0, 1.0)
+        mass = np.where(t >= p["t_mass"], p["mass"] + p["mass_step"], p["mass"])
+        p_brake = np.where((t >= p["t_brake"]) & (t < p["t_brake"] + 3.0), p["brake_mpa"], 0.0)
+        throttle[p_brake > 0] = 0.0
+        out = np.zeros((m, 5))  # v, v̇, F_x, gear, engine rpm
+        for k in range(m):
+            gear = shift(gear, v, float(throttle[k]))
+            w_in = GEARS[gear] * R_FD * v / R_W
+            t_i, t_t = converter(w_e, w_in)
+            dw = (engine_torque(float(throttle[k]), w_e) - t_i) / I_EI
+            t_b = K_B * p_brake[k] if v > 0 else 0.0
+            f_x = (GEARS[gear] * R_FD * t_t - t_b) / R_W  # eq. 5, brake against motion
+            resist = 0.5 * cda * RHO * v * v + mass[k] * G * (
+                F_ROLL * np.cos(grade[k]) + np.sin(grade[k])
+            )
+            dv = (f_x - resist) / mass[k]
+            if v <= 0.0 and dv < 0.0:  # at rest: the brake/static friction holds the car
+                dv = 0.0
+            out[k] = v, dv, f_x, gear + 1, w_e / RPM
+            d = np.array([dv, dw])
+            step = T * d if prev is None else T * (1.5 * d - 0.5 * prev)  # eq. 30
+            prev = d
+            v, w_e = max(v + step[0], 0.0), max(w_e + step[1], 1.0)
+        yield Trace(
+            t=t,
+            signals={
+                "v": out[:, 0] + noise.normal(0, sd_v, m) * (sd_v > 0),
+                "v_dot": out[:, 1] + noise.normal(1, sd_a, m) * (sd_a > 0),
+                "z": out[:, 2] + noise.normal(2, 1.0, m) * sd_z,
+                "throttle": throttle,
+                "gear": out[:, 3],
+                "engine_rpm": out[:, 4],
+            },
+            truth={
+                "m": mass,
+                "cda": np.full(m, cda),
+                "grade": np.degrees(grade),
+                "v_true": out[:, 0],
+            },
+        )
 
 
 SPEC = register(
@@ -286,7 +301,8 @@ SPEC = register(
             Signal("grade", "deg"),
             Signal("v_true", "m/s"),
         ),
-        simulate=_simulate,
+        simulate=joined(_stream),
+        stream=_stream,
         files=(
             FileInput(
                 "gps",

@@ -27,14 +27,14 @@ comfort and limit figures (a_body, defl, tire_defl, u_applied).
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from typing import Any
 
 import numpy as np
 
 from vehil.models.quarter_car import NOMINAL
 from vehil.plants import register
-from vehil.plants.base import FileInput, PlantSpec, Trace
+from vehil.plants.base import FileInput, PlantSpec, Trace, join, joined
 from vehil.plants.quarter_car_truth import truth_car
 from vehil.spec import Param, Signal
 
@@ -212,27 +212,43 @@ def simulate_with(
     road: RoadFn | None = None,
 ) -> Trace:
     """Open loop: passive (force None) or a given actuator force u(t, truth)."""
+    return join(stream_with(p, duration, T, seed, 1 << 16, force, road))
+
+
+def stream_with(
+    p: Mapping[str, Any],
+    duration: float,
+    T: float,
+    seed: int,
+    chunk: int,
+    force: Callable[[float, dict[str, float]], float] | None = None,
+    road: RoadFn | None = None,
+) -> Iterator[Trace]:
+    """simulate_with's drive, `chunk` samples at a time."""
     plant = QuarterCarLoop(p, T, seed, road)
     n = int(round(duration / T))
-    t = np.empty(n)
-    sig: dict[str, list[float]] = {}
-    tru: dict[str, list[float]] = {}
-    for k in range(n):
-        t[k], s, tr = plant.measure()
-        for name, v in s.items():
-            sig.setdefault(name, []).append(v)
-        for name, v in tr.items():
-            tru.setdefault(name, []).append(v)
-        plant.apply({"u": force(t[k], tr) if force else 0.0})
-    return Trace(
-        t=t,
-        signals={k: np.array(v) for k, v in sig.items()},
-        truth={k: np.array(v) for k, v in tru.items()},
-    )
+    for k0 in range(0, n, chunk):
+        t = np.empty(min(chunk, n - k0))
+        sig: dict[str, list[float]] = {}
+        tru: dict[str, list[float]] = {}
+        for k in range(len(t)):
+            t[k], s, tr = plant.measure()
+            for name, v in s.items():
+                sig.setdefault(name, []).append(v)
+            for name, v in tr.items():
+                tru.setdefault(name, []).append(v)
+            plant.apply({"u": force(t[k], tr) if force else 0.0})
+        yield Trace(
+            t=t,
+            signals={k: np.array(v) for k, v in sig.items()},
+            truth={k: np.array(v) for k, v in tru.items()},
+        )
 
 
-def _simulate(p: Mapping[str, Any], duration: float, T: float, seed: int) -> Trace:
-    return simulate_with(p, duration, T, seed)
+def _passive(
+    p: Mapping[str, Any], duration: float, T: float, seed: int, chunk: int
+) -> Iterator[Trace]:
+    return stream_with(p, duration, T, seed, chunk)
 
 
 SPEC = register(
@@ -298,7 +314,8 @@ SPEC = register(
             Signal("tire_defl", "m", doc="tire deflection x_us - x_r"),
             Signal("u_applied", "N", doc="actuator force held over the sample"),
         ),
-        simulate=_simulate,
+        simulate=joined(_passive),
+        stream=_passive,
         loop=QuarterCarLoop,
         files=(
             FileInput(
