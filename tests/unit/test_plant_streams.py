@@ -18,6 +18,8 @@ CASES = [
     ("longitudinal", {"road": 2, "profile": 1, "mass_step": 300, "t_mass": 1.0}, 4.0, 0.02),
     ("quarter_car", {"road": 2}, 1.0, 0.01),  # ISO road: drawn as it goes
     ("quarter_car", {"road": 3, "patch_len": 0.2, "acc_bw": 20.0}, 1.0, 0.001),
+    ("ev4wd", {"noise": 1.0}, 0.5, 0.01),
+    ("ev4wd", {"manoeuvre": 1, "sigma_x": 0.3}, 0.5, 0.005),
     ("noisy_sine", {}, 3.0, 0.01),
 ]
 

@@ -44,13 +44,13 @@ load transfer through the body's roll and pitch with time constants `roll_tau`,
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 
 import numpy as np
 
 from vehil.models import ev4wd as ev
 from vehil.plants import register
-from vehil.plants.base import PlantSpec, Trace
+from vehil.plants.base import PlantSpec, Trace, joined
 from vehil.spec import Param, Signal
 
 DT = 1e-3
@@ -96,7 +96,9 @@ def _lag(tau: float, dt: float) -> float:
     return 1.0 if tau <= 0 else 1.0 - math.exp(-dt / tau)
 
 
-def _simulate(p: Mapping[str, float], duration: float, T: float, seed: int) -> Trace:
+def _stream(
+    p: Mapping[str, float], duration: float, T: float, seed: int, chunk: int
+) -> Iterator[Trace]:
     rng = np.random.default_rng(seed)
     n = int(round(duration / T))
     sub = max(1, int(round(T / DT)))
@@ -120,94 +122,98 @@ def _simulate(p: Mapping[str, float], duration: float, T: float, seed: int) -> T
     fx = np.zeros(4)
     k_roll, k_pitch = _lag(p["roll_tau"], T / sub), _lag(p["pitch_tau"], T / sub)
     ax_l = ay_l = 0.0  # the accelerations the body's pitch and roll have reached
-    out = np.zeros((n, 12))
-    truth = np.zeros((n, 7 + 4))  # vx vy r fy1..4, kappa1..4
-    for k in range(n):
-        for j in range(sub):
-            t = (k * sub + j) * dt
-            # Driver: steering.
-            if man == 0:
-                ahead = max(PREVIEW_S * vx, 5.0)
-                gx = X + ahead
-                gy = dlc_path(gx, p["dlc_offset"], p["dlc_length"])
-                dx, dy = gx - X, gy - Y
-                yb = -math.sin(psi) * dx + math.cos(psi) * dy
-                delta = math.atan(2 * ev.WHEELBASE * yb / (dx * dx + dy * dy))
-            elif man == 1:
-                fade = min(max(t - 1.0, 0.0), 1.0)
-                delta = (
-                    fade * math.radians(p["steer_deg"]) * math.sin(2 * math.pi * p["steer_hz"] * t)
-                )
-            else:
-                delta = 0.0
-            # Driver: torque demand per wheel.
-            if man == 2:
-                demand = 80.0 + 90.0 * max(t - 6.0, 0.0)
-                demand = min(demand, 400.0)
-            elif man == 3 and t >= 5.0:
-                demand = -(450.0 if (t - 5.0) % 2.5 < 0.8 else 60.0)
-            else:
-                err = v_set - vx
-                integ += err * dt
-                resist = ev.DRAG * vx * vx + mass * ev.G * ev.F_ROLL
-                demand = ev.R_W * (resist + mass * (1.5 * err + 0.3 * integ)) / 4
-            # Wheels: kinematics and slips.
-            d = delta * st
-            cd, sd = np.cos(d), np.sin(d)
-            vX, vY = vx - byw * r, vy + lx * r
-            vix = cd * vX + sd * vY
-            viy = -sd * vX + cd * vY
-            alpha = -np.arctan(viy / np.maximum(np.abs(vix), 0.5))
-            kappa = (w * ev.R_W - vix) / np.maximum(np.abs(vix), V_FLOOR)
-            # TCS / ABS: cut the torque limit while a wheel slips, restore it after.
-            cutting = np.where(np.abs(kappa) > SLIP_ON, True, cutting)
-            cutting = np.where(np.abs(kappa) < SLIP_OFF, False, cutting)
-            limit = np.clip(limit + np.where(cutting, -CUT_RATE, RESTORE_RATE) * dt, 0.0, T_MAX)
-            tq = np.clip(demand, -limit, limit)
-            # Loads through the body's pitch and roll, then the tires.
-            ax_l += k_pitch * (ax - ax_l)
-            ay_l += k_roll * (ay - ay_l)
-            fz = transfer_loads(ax_l, ay_l, mass)
-            dmax = mu * fz * (1.0 - p["load_sens"] * (fz - fz0) / fz0)
-            fx0 = magic_formula(kappa, bx, ev.CX, ev.EX, dmax)
-            fx_qs = np.cos(ev.CXA * np.arctan(ev.BXA * alpha)) * fx0
-            fy_qs = np.cos(ev.CYK * np.arctan(ev.BYK * kappa)) * magic_formula(
-                alpha, by, cy, ev.EY, dmax
-            )
-            if p["sigma_x"] <= 0:
-                fx = fx_qs
-            fX, fY = cd * fx - sd * fy, sd * fx + cd * fy
-            resist = ev.DRAG * vx * abs(vx) + mass * ev.G * ev.F_ROLL * math.tanh(vx / 0.5)
-            ax = (fX.sum() - resist) / mass
-            ay = fY.sum() / mass
-            mz = float((lx * fY - byw * fX).sum())
-            if j == 0:
-                out[k] = (ax, ay, r, *w, delta, *tq)
-                truth[k] = (vx, vy, r, *fy, *kappa)
-            # Euler step.
-            w = np.maximum(w + dt * (tq - ev.R_W * fx) / ev.I_W, 0.0)
-            fy = fy + dt * np.abs(vix) / p["sigma_y"] * (fy_qs - fy)
-            if p["sigma_x"] > 0:
-                fx = fx + dt * np.abs(vix) / p["sigma_x"] * (fx_qs - fx)
-            vx, vy, r = vx + dt * (ax + r * vy), vy + dt * (ay - r * vx), r + dt * mz / i_z
-            X += dt * (vx * math.cos(psi) - vy * math.sin(psi))
-            Y += dt * (vx * math.sin(psi) + vy * math.cos(psi))
-            psi += dt * r
-    if p["noise"] > 0:
-        sd_in = p["noise"] * np.array(
-            [ev.SD_ACC, ev.SD_ACC, ev.SD_GYRO, *[ev.SD_W] * 4, math.radians(0.05), *[2.0] * 4]
-        )
-        bias = np.zeros(12)
-        bias[:3] = (0.05, -0.04, math.radians(0.2))
-        out = out + bias + rng.normal(0.0, 1.0, out.shape) * sd_in
     names = ["ax", "ay", "gz", "w1", "w2", "w3", "w4", "delta", "tq1", "tq2", "tq3", "tq4"]
-    beta = np.degrees(np.arctan2(truth[:, 1], np.maximum(truth[:, 0], 0.1)))
     tnames = ["vx", "vy", "r", "fy1", "fy2", "fy3", "fy4", "kappa1", "kappa2", "kappa3", "kappa4"]
-    return Trace(
-        t=np.arange(n) * T,
-        signals={nm: out[:, i] for i, nm in enumerate(names)},
-        truth={**{nm: truth[:, i] for i, nm in enumerate(tnames)}, "beta": beta},
+    sd_in = p["noise"] * np.array(
+        [ev.SD_ACC, ev.SD_ACC, ev.SD_GYRO, *[ev.SD_W] * 4, math.radians(0.05), *[2.0] * 4]
     )
+    bias = np.zeros(12)
+    bias[:3] = (0.05, -0.04, math.radians(0.2))
+    for k0 in range(0, n, chunk):
+        m = min(chunk, n - k0)
+        out = np.zeros((m, 12))
+        truth = np.zeros((m, 7 + 4))  # vx vy r fy1..4, kappa1..4
+        for k in range(k0, k0 + m):
+            for j in range(sub):
+                t = (k * sub + j) * dt
+                # Driver: steering.
+                if man == 0:
+                    ahead = max(PREVIEW_S * vx, 5.0)
+                    gx = X + ahead
+                    gy = dlc_path(gx, p["dlc_offset"], p["dlc_length"])
+                    dx, dy = gx - X, gy - Y
+                    yb = -math.sin(psi) * dx + math.cos(psi) * dy
+                    delta = math.atan(2 * ev.WHEELBASE * yb / (dx * dx + dy * dy))
+                elif man == 1:
+                    fade = min(max(t - 1.0, 0.0), 1.0)
+                    delta = (
+                        fade
+                        * math.radians(p["steer_deg"])
+                        * math.sin(2 * math.pi * p["steer_hz"] * t)
+                    )
+                else:
+                    delta = 0.0
+                # Driver: torque demand per wheel.
+                if man == 2:
+                    demand = 80.0 + 90.0 * max(t - 6.0, 0.0)
+                    demand = min(demand, 400.0)
+                elif man == 3 and t >= 5.0:
+                    demand = -(450.0 if (t - 5.0) % 2.5 < 0.8 else 60.0)
+                else:
+                    err = v_set - vx
+                    integ += err * dt
+                    resist = ev.DRAG * vx * vx + mass * ev.G * ev.F_ROLL
+                    demand = ev.R_W * (resist + mass * (1.5 * err + 0.3 * integ)) / 4
+                # Wheels: kinematics and slips.
+                d = delta * st
+                cd, sd = np.cos(d), np.sin(d)
+                vX, vY = vx - byw * r, vy + lx * r
+                vix = cd * vX + sd * vY
+                viy = -sd * vX + cd * vY
+                alpha = -np.arctan(viy / np.maximum(np.abs(vix), 0.5))
+                kappa = (w * ev.R_W - vix) / np.maximum(np.abs(vix), V_FLOOR)
+                # TCS / ABS: cut the torque limit while a wheel slips, restore it after.
+                cutting = np.where(np.abs(kappa) > SLIP_ON, True, cutting)
+                cutting = np.where(np.abs(kappa) < SLIP_OFF, False, cutting)
+                limit = np.clip(limit + np.where(cutting, -CUT_RATE, RESTORE_RATE) * dt, 0.0, T_MAX)
+                tq = np.clip(demand, -limit, limit)
+                # Loads through the body's pitch and roll, then the tires.
+                ax_l += k_pitch * (ax - ax_l)
+                ay_l += k_roll * (ay - ay_l)
+                fz = transfer_loads(ax_l, ay_l, mass)
+                dmax = mu * fz * (1.0 - p["load_sens"] * (fz - fz0) / fz0)
+                fx0 = magic_formula(kappa, bx, ev.CX, ev.EX, dmax)
+                fx_qs = np.cos(ev.CXA * np.arctan(ev.BXA * alpha)) * fx0
+                fy_qs = np.cos(ev.CYK * np.arctan(ev.BYK * kappa)) * magic_formula(
+                    alpha, by, cy, ev.EY, dmax
+                )
+                if p["sigma_x"] <= 0:
+                    fx = fx_qs
+                fX, fY = cd * fx - sd * fy, sd * fx + cd * fy
+                resist = ev.DRAG * vx * abs(vx) + mass * ev.G * ev.F_ROLL * math.tanh(vx / 0.5)
+                ax = (fX.sum() - resist) / mass
+                ay = fY.sum() / mass
+                mz = float((lx * fY - byw * fX).sum())
+                if j == 0:
+                    out[k - k0] = (ax, ay, r, *w, delta, *tq)
+                    truth[k - k0] = (vx, vy, r, *fy, *kappa)
+                # Euler step.
+                w = np.maximum(w + dt * (tq - ev.R_W * fx) / ev.I_W, 0.0)
+                fy = fy + dt * np.abs(vix) / p["sigma_y"] * (fy_qs - fy)
+                if p["sigma_x"] > 0:
+                    fx = fx + dt * np.abs(vix) / p["sigma_x"] * (fx_qs - fx)
+                vx, vy, r = vx + dt * (ax + r * vy), vy + dt * (ay - r * vx), r + dt * mz / i_z
+                X += dt * (vx * math.cos(psi) - vy * math.sin(psi))
+                Y += dt * (vx * math.sin(psi) + vy * math.cos(psi))
+                psi += dt * r
+        if p["noise"] > 0:
+            out = out + bias + rng.normal(0.0, 1.0, out.shape) * sd_in
+        beta = np.degrees(np.arctan2(truth[:, 1], np.maximum(truth[:, 0], 0.1)))
+        yield Trace(
+            t=np.arange(k0, k0 + m) * T,
+            signals={nm: out[:, i] for i, nm in enumerate(names)},
+            truth={**{nm: truth[:, i] for i, nm in enumerate(tnames)}, "beta": beta},
+        )
 
 
 SPEC = register(
@@ -241,6 +247,7 @@ SPEC = register(
             *ev.OUTPUTS,
             *(Signal(f"kappa{i}", "1", doc=f"wheel {i} slip ratio") for i in range(1, 5)),
         ),
-        simulate=_simulate,
+        simulate=joined(_stream),
+        stream=_stream,
     )
 )
