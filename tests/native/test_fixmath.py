@@ -305,3 +305,44 @@ def test_fx_dot16x32_q15_rounds_the_exact_sum_once_and_saturates(native_lib) -> 
         )
         assert got == max(-(2**31), min(2**31 - 1, want)), (ls, ys, stride)
         assert bool(status.value & 1) == (not -(2**31) <= want < 2**31), (ls, ys, stride)
+
+
+def test_a_signed_factor_multiplies_rounded_ties_away_and_saturates(native_lib) -> None:  # noqa: ANN001
+    """fx_factor keeps x 2^e to 16 bits (m in [2^15, 2^16), 9 <= sh <= 47, the sign in sh's
+    bit 7; past 128: saturated and flagged) and fx_mul_f_c gives round(a f), ties away from
+    zero, saturated and flagged, against Python's integers on edges and random operands (the
+    AVR's assembly kernel, fx_mul_f_avr.S, is held to these bits by the ESO's bit-exact
+    drives)."""
+
+    class Factor(ctypes.Structure):
+        _fields_ = [("m", ctypes.c_uint16), ("sh", ctypes.c_uint8)]
+
+    fac = native_lib.fx_factor
+    fac.argtypes = [ctypes.c_float, ctypes.c_int8, ctypes.POINTER(ctypes.c_uint8)]
+    fac.restype = Factor
+    mul = native_lib.fx_mul_f_c
+    mul.argtypes = [ctypes.c_int32, ctypes.c_uint16, ctypes.c_uint8, ctypes.POINTER(ctypes.c_uint8)]
+    mul.restype = ctypes.c_int32
+    rng = np.random.default_rng(1717)
+    for x, e in [(0.978, 5), (-1.82, 0), (9.87e-6, 0), (-282.5, -12), (3.2e-4, 8), (127.9, 0)]:
+        st = ctypes.c_uint8(0)
+        f = fac(x, e, ctypes.byref(st))
+        value = (-1 if f.sh & 0x80 else 1) * f.m * 2.0 ** -(f.sh & 0x3F)
+        assert 2**15 <= f.m < 2**16 and 9 <= f.sh & 0x3F <= 47 and st.value == 0, (x, e)
+        assert abs(value - x * 2.0**e) <= abs(x * 2.0**e) * 2.0**-16, (x, e)
+    st = ctypes.c_uint8(0)
+    assert fac(128.0, 0, ctypes.byref(st)).m == 0xFFFF and st.value & 0x01
+    assert fac(0.0, 0, ctypes.byref(st)).m == 0
+    edges = [0, 1, -1, 2**31 - 1, -(2**31), 2**30, -(2**30) - 1]
+    ays = edges + [int(a) >> int(rng.integers(0, 31)) for a in rng.integers(-(2**31), 2**31, 300)]
+    ms = [0, 1, 2**15, 2**16 - 1] + [int(m) for m in rng.integers(2**15, 2**16, 12)]
+    for sh in [9, 10, 15, 16, 17, 23, 24, 31, 32, 40, 47]:
+        for neg in (0, 0x80):
+            for a in ays:
+                for m in ms:
+                    mag = (abs(a) * m + (1 << (sh - 1))) >> sh
+                    want = -mag if (a < 0) != bool(neg) else mag
+                    st = ctypes.c_uint8(0)
+                    got = mul(a, m, sh | neg, ctypes.byref(st))
+                    assert got == max(-(2**31), min(2**31 - 1, want)), (a, m, sh, neg)
+                    assert bool(st.value & 1) == (not -(2**31) <= want < 2**31), (a, m, sh, neg)

@@ -46,24 +46,26 @@ void accel_cond_design_f32(accel_cond_f32_t *c, const uint8_t *params, uint8_t f
     if (f_post > 0.0f) {
         float rc = 1.0f / (2.0f * PI_F * f_post);
         c->alpha = rc / (rc + T);
+        c->one_m_alpha = T / (rc + T); /* not 1 - α: α's rounding would be most of it */
     } else {
         c->alpha = 1.0f;
+        c->one_m_alpha = 0.0f;
     }
-}
-
-static biquad_q_t biquad_to_q(const biquad_f32_t *b, uint8_t *status)
-{
-    return (biquad_q_t){fx_from_float(b->b0, 29, status), fx_from_float(b->a1, 29, status),
-                        fx_from_float(b->a2, 29, status)};
 }
 
 void accel_cond_q_from_f32(accel_cond_q_t *q, const accel_cond_f32_t *c, uint8_t *status)
 {
     q->hp = (hp_delta_q_t){fx_from_float(c->hp.g, 30, status), fx_from_float(c->hp.c2, 30, status),
                            fx_from_float(c->hp.c12, 30, status)};
-    q->lp = biquad_to_q(&c->lp, status);
-    q->half_T = fx_from_float(c->half_T, 30, status);
-    q->alpha = fx_from_float(c->alpha, 30, status);
+    /* the poles as their distances from a1 = -2, a2 = 1 (a double pole at z = 1), which
+     * keep 16 bits where the poles near 1 need them; b0 from the poles as kept, so that the
+     * DC gain stays 1 */
+    fx_factor_t p1 = fx_factor(c->lp.a1 + 2.0f, 0, status);
+    fx_factor_t p2 = fx_factor(1.0f - c->lp.a2, 0, status);
+    float b0 = 0.25f * (fx_factor_value(p1) - fx_factor_value(p2));
+    q->lp = (biquad_q_t){fx_factor(b0, 20 - (ACCEL_QH - 2), status), p1, p2};
+    q->beta = fx_factor(c->alpha * c->half_T, 4, status);
+    q->gamma = fx_factor(c->one_m_alpha, 0, status);
 }
 
 static float biquad_f32(const biquad_f32_t *b, float x, float x1, float x2, float y1, float y2)
@@ -87,34 +89,34 @@ float accel_cond_step_f32(const accel_cond_f32_t *c, accel_chan_f32_t *ch, float
     return ch->x;
 }
 
-/* Direct form I, input ACCEL_QH, output Q20, each product rounded into Q20. x + 2 x1 + x2
+/* Direct form I, input ACCEL_QH, output Q20, each product rounded into Q20, the poles as
+ * y = b0 (x + 2 x1 + x2) + 2 y1 - y2 - p1 y1 + p2 y2 (a1 = p1 - 2, a2 = 1 - p2). x + 2 x1 + x2
  * reaches 4 times the input's range: it is summed two bits coarser (Q19, ±4,096 m/s²), in
  * int32 without overflow; b0 < 1 scales that rounding down. */
 static int32_t biquad_q(const biquad_q_t *b, int32_t x, int32_t x1, int32_t x2, int32_t y1,
                         int32_t y2, uint8_t *s)
 {
     int32_t sum = (x >> 2) + (x1 >> 1) + (x2 >> 2);
-    int32_t y = fx_mul(b->b0, 29, sum, ACCEL_QH - 2, 20, s);
-    y = fx_sub(y, fx_mul(b->a1, 29, y1, 20, 20, s), s);
-    return fx_sub(y, fx_mul(b->a2, 29, y2, 20, 20, s), s);
+    int32_t y = fx_add(fx_mul_f(sum, b->b0, s), fx_sub(y1, y2, s), s);
+    y = fx_add(y, fx_sub(y1, fx_mul_f(y1, b->p1, s), s), s);
+    return fx_add(y, fx_mul_f(y2, b->p2, s), s);
 }
 
 int32_t accel_cond_step_q(const accel_cond_q_t *c, accel_chan_q_t *ch, int32_t a,
                           uint8_t *status)
 {
     const hp_delta_q_t *hp = &c->hp;
-    int32_t a20 = fx_rescale(a, 16, 20, status);
-    int32_t d2 = fx_sub(fx_sub(a20, ch->x1, status), fx_sub(ch->x1, ch->x2, status), status);
+    int32_t d2 = fx_sub(fx_sub(a, ch->x1, status), fx_sub(ch->x1, ch->x2, status), status);
     int32_t dh = fx_sub(ch->dh, fx_mul(hp->c2, 30, ch->dh, ACCEL_QH, ACCEL_QH, status), status);
-    dh = fx_add(dh, fx_mul(hp->g, 30, d2, 20, ACCEL_QH, status), status);
+    dh = fx_add(dh, fx_mul(hp->g, 30, d2, 16, ACCEL_QH, status), status);
     ch->dh = fx_sub(dh, fx_mul(hp->c12, 30, ch->h1, ACCEL_QH, ACCEL_QH, status), status);
     int32_t h = fx_add(ch->h1, ch->dh, status);
     int32_t l = biquad_q(&c->lp, h, ch->h1, ch->h2, ch->l1, ch->l2, status);
-    int32_t dv = fx_mul(c->half_T, 30, fx_add(l, ch->l1, status), 20, 24, status);
-    int32_t v = fx_mul(c->alpha, 30, fx_add(ch->v, dv, status), 24, 24, status);
-    int32_t dx = fx_mul(c->half_T, 30, fx_add(v, ch->v, status), 24, 28, status);
-    ch->x = fx_mul(c->alpha, 30, fx_add(ch->x, dx, status), 28, 28, status);
-    ch->x2 = ch->x1, ch->x1 = a20;
+    int32_t v = fx_add(ch->v, fx_mul_f(fx_add(l, ch->l1, status), c->beta, status), status);
+    v = fx_sub(v, fx_mul_f(ch->v, c->gamma, status), status);
+    int32_t x = fx_add(ch->x, fx_mul_f(fx_add(v, ch->v, status), c->beta, status), status);
+    ch->x = fx_sub(x, fx_mul_f(ch->x, c->gamma, status), status);
+    ch->x2 = ch->x1, ch->x1 = a;
     ch->l2 = ch->l1, ch->l1 = l;
     ch->h2 = ch->h1, ch->h1 = h;
     ch->v = v;

@@ -8,17 +8,18 @@
  * 0.35 % of the displacement to float32 rounding): with Δ = y1 - y2,
  *   Δ <- (1 - c2) Δ + g (x - 2 x1 + x2) - c12 y1,  y = y1 + Δ,
  * c2 = 1 - a2 = 2√2 K g, c12 = 1 + a1 + a2 = 4 K² g, g = 1/(1 + √2 K + K²).
- * Fixed point: raw and low-passed data Q20 (m/s²), high-passed and its step ACCEL_QH
- * (Q21, ±1,024 m/s²: over four times the -235 m/s² an unsprung mass reaches on hard
- * bumps, docs/estimators/eso.md),
- * coefficients Q29 (high-pass Q30),
- * velocity Q24, displacement Q28. */
+ * Fixed point: raw data as it comes, Q16; low-passed Q20 (m/s²), high-passed and its step
+ * ACCEL_QH (Q21, ±1,024 m/s²: over four times the -235 m/s² an unsprung mass reaches on
+ * hard bumps, docs/estimators/eso.md); velocity Q24, displacement Q28. Every coefficient
+ * is a factor (fx_factor_t: 16 significant bits at a shift chosen at CONFIG) that takes
+ * its operand's Q to its result's. */
 #ifndef VEHIL_ESTIMATORS_ACCEL_COND_H
 #define VEHIL_ESTIMATORS_ACCEL_COND_H
 
 #include <stdint.h>
 
 #include "estimators/params.h"
+#include "fixmath/fixmath.h"
 
 #define ACCEL_COND_N_PARAMS 3u
 #define ACCEL_QH 21 /* Q format of the high-passed acceleration */
@@ -30,7 +31,7 @@ typedef struct {
 } biquad_f32_t;
 
 typedef struct {
-    int32_t b0, a1, a2; /* Q29 */
+    fx_factor_t b0, p1, p2; /* Q19 sum -> Q20; p1 = a1 + 2, p2 = 1 - a2: Q20 -> Q20 */
 } biquad_q_t;
 
 typedef struct {
@@ -38,19 +39,20 @@ typedef struct {
 } hp_delta_f32_t;
 
 typedef struct {
-    int32_t g, c2, c12; /* Q30 */
+    int32_t g, c2, c12; /* Q30: to 30 bits, their rounding noise (docs/estimators/eso.md) */
 } hp_delta_q_t;
 
 typedef struct {
     hp_delta_f32_t hp;
     biquad_f32_t lp;
-    float half_T, alpha;
+    float half_T, alpha, one_m_alpha;
 } accel_cond_f32_t;
 
+/* The trapezoid and the post high-pass as v <- v - γ v + β (l + l1): β = α T/2, γ = 1 - α. */
 typedef struct {
     hp_delta_q_t hp;
     biquad_q_t lp;
-    int32_t half_T, alpha; /* Q30 */
+    fx_factor_t beta, gamma; /* β: Q20 -> Q24 (and Q24 -> Q28), γ: Q -> Q */
 } accel_cond_q_t;
 
 /* One channel's memory; the low-pass's input history is the high-pass's output history. */
@@ -61,10 +63,11 @@ typedef struct {
 } accel_chan_f32_t;
 
 typedef struct {
-    int32_t x1, x2, l1, l2; /* Q20 */
+    int32_t x1, x2;         /* Q16, the input as it came */
+    int32_t l1, l2;         /* Q20 */
     int32_t h1, h2, dh;     /* ACCEL_QH: the high-pass's output, its history and last step */
-    int32_t v;                      /* Q24 */
-    int32_t x;                      /* Q28 */
+    int32_t v;              /* Q24 */
+    int32_t x;              /* Q28 */
 } accel_chan_q_t;
 
 extern const ROM param_range_t accel_cond_ranges[ACCEL_COND_N_PARAMS];

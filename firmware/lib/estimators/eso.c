@@ -57,11 +57,9 @@ static uint8_t step_f32(eso_state_t *st, const uint8_t *in, uint8_t *out)
 static void observer_q(const eso_q_t *s, int32_t *z, int32_t y, int32_t acc, uint8_t *st)
 {
     int32_t e = fx_sub(y, z[0], st);
-    int32_t z0 = fx_add(z[0], fx_add(fx_mul(s->T, 30, z[1], 24, 28, st),
-                                     fx_mul(s->g1, 26, e, 28, 28, st), st), st);
-    int32_t z1 = fx_add(z[1], fx_add(fx_mul(s->T, 30, acc, 20, 24, st),
-                                     fx_mul(s->g2, 20, e, 28, 24, st), st), st);
-    z[2] = fx_add(z[2], fx_mul(s->g3, 16, e, 28, 20, st), st);
+    int32_t z0 = fx_add(fx_add(z[0], fx_mul_f(z[1], s->T, st), st), fx_mul_f(e, s->g1, st), st);
+    int32_t z1 = fx_add(fx_add(z[1], fx_mul_f(acc, s->T, st), st), fx_mul_f(e, s->g2, st), st);
+    z[2] = fx_add(z[2], fx_mul_f(e, s->g3, st), st);
     z[0] = z0;
     z[1] = z1;
 }
@@ -77,29 +75,32 @@ static uint8_t step_q(eso_state_t *st, const uint8_t *in, uint8_t *out)
     int32_t acc_s = z[2], acc_us = z[5];
     if (s->ecu.ctrl.active || st->variant) { /* else u - f_nl stays 0 */
         int32_t du = fx_sub(s->ecu.u, s->fnl, &status); /* N Q16 */
-        acc_s = fx_add(acc_s, fx_mul(du, 16, m->inv_m_s, 36, 20, &status), &status);
-        acc_us = fx_sub(acc_us, fx_mul(du, 16, m->inv_m_us, 36, 20, &status), &status);
+        acc_s = fx_add(acc_s, fx_mul_f(du, m->inv_m_s, &status), &status);
+        acc_us = fx_sub(acc_us, fx_mul_f(du, m->inv_m_us, &status), &status);
     }
     observer_q(s, z, y_s, acc_s, &status);
     observer_q(s, z + 3, y_us, acc_us, &status);
     int32_t dx = fx_sub(z[0], z[3], &status), dv = fx_sub(z[1], z[4], &status);
-    int32_t fnl = qcar_strut_q(m, dx, dv, 1, &status);
-    s->fnl = st->variant ? fnl : 0;
     susp_est_q_t est = {z[0], z[1], z[3], z[4], z[2], z[5], 0};
+    int32_t fnl = 0; /* needed by variant B and by the nominal strut's road */
+    if (st->variant || !st->road_from) {
+        fnl = qcar_strut_nl_q(m, dx, dv, &status);
+    }
+    s->fnl = st->variant ? fnl : 0;
     if (st->variant) { /* variant B: the model's share leaves the lumped disturbances */
-        est.F1 = fx_sub(z[2], fx_mul(s->fnl, 16, m->inv_m_s, 36, 20, &status), &status);
-        est.F2 = fx_add(z[5], fx_mul(s->fnl, 16, m->inv_m_us, 36, 20, &status), &status);
+        est.F1 = fx_sub(z[2], fx_mul_f(s->fnl, m->inv_m_s, &status), &status);
+        est.F2 = fx_add(z[5], fx_mul_f(s->fnl, m->inv_m_us, &status), &status);
     }
-    int32_t tire = fx_mul(m->m_us, 16, est.F2, 20, 16, &status); /* N Q16 */
-    if (st->road_from) {
-        tire = fx_add(tire, fx_mul(m->m_s, 16, est.F1, 20, 16, &status), &status);
-    } else {
-        int32_t strut = fx_add(fnl, fx_add(fx_mul(m->k1, 8, dx, 28, 16, &status),
-                                           fx_mul(m->c1, 16, dv, 24, 16, &status), &status),
-                               &status);
-        tire = fx_sub(tire, strut, &status);
+    /* x̂_r = x̂_us + (m_us F̂2 - strut)/k_us, each term over k_us a factor to Q28 */
+    int32_t x_r = fx_add(est.x_us, fx_mul_f(est.F2, m->r_m_us, &status), &status);
+    if (st->road_from) { /* the strut from the body: -m_s F̂1 */
+        x_r = fx_add(x_r, fx_mul_f(est.F1, m->r_m_s, &status), &status);
+    } else { /* the nominal strut: f_nl + k1 Δx + c1 Δẋ */
+        x_r = fx_sub(x_r, fx_mul_f(fnl, m->r_force, &status), &status);
+        x_r = fx_sub(x_r, fx_mul_f(dx, m->r_k1, &status), &status);
+        x_r = fx_sub(x_r, fx_mul_f(dv, m->r_c1, &status), &status);
     }
-    est.x_r = fx_add(est.x_us, fx_mul(tire, 16, m->inv_k_us, 44, 28, &status), &status);
+    est.x_r = x_r;
     s->ecu.u = susp_ctrl_step_q(&s->ecu.ctrl, &est, &status);
     susp_ecu_put_q(out, &est, s->ecu.u);
     return status;
@@ -144,13 +145,16 @@ static uint8_t eso_configure(void *state, uint8_t mode, const uint8_t *params)
     if (mode == MODE_F32) {
         st->u.f32 = f;
     } else {
-        uint8_t status = 0; /* the ranges keep every value inside its Q format */
+        uint8_t status = 0; /* the rule above keeps the gains' factors below 128 */
         eso_q_t *q = &st->u.q;
-        susp_ecu_q_from_f32(&q->ecu, &f.ecu, &status);
-        q->T = fx_from_float(T, 30, &status);
-        q->g1 = fx_from_float(f.g[0], 26, &status);
-        q->g2 = fx_from_float(f.g[1], 20, &status);
-        q->g3 = fx_from_float(f.g[2], 16, &status);
+        bad = susp_ecu_q_from_f32(&q->ecu, &f.ecu);
+        if (bad != 0) {
+            return (uint8_t)(N_OWN + bad);
+        }
+        q->T = fx_factor(T, 4, &status);
+        q->g1 = fx_factor(f.g[0], 0, &status);
+        q->g2 = fx_factor(f.g[1], -4, &status);
+        q->g3 = fx_factor(f.g[2], -8, &status);
     }
     eso_reset(st);
     return 0;

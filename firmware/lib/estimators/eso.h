@@ -8,7 +8,8 @@
  *
  * Inputs  a_s, a_us [m/s²] Q16.   Outputs see susp_ecu.h.
  * Params  T Q30, ε Q24, variant Q0, design Q0, road_from Q0, then the ECU tail (susp_ecu.h).
- * float32 (step_f32) and fixed point (step_q): z Q28 (m), Q24 (m/s), Q20 (m/s²). */
+ * float32 (step_f32) and fixed point (step_q): z Q28 (m), Q24 (m/s), Q20 (m/s²); T and the
+ * gains as factors (fx_factor_t) from the error's or the state's Q to the one they update. */
 #ifndef VEHIL_ESTIMATORS_ESO_H
 #define VEHIL_ESTIMATORS_ESO_H
 
@@ -28,7 +29,7 @@ typedef struct {
 
 typedef struct {
     susp_ecu_q_t ecu;
-    int32_t T, g1, g2, g3; /* Q30, Q26, Q20, Q16 */
+    fx_factor_t T, g1, g2, g3; /* T: Q24 -> Q28 and Q20 -> Q24; g: Q28 -> Q28, Q24, Q20 */
     int32_t z[6];          /* Q28 Q24 Q20, Q28 Q24 Q20 */
     int32_t fnl;           /* N, Q16 */
 } eso_q_t;

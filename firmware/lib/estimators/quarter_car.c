@@ -18,18 +18,18 @@ void qcar_read_f32(qcar_f32_t *m, const uint8_t *params, uint8_t first, uint8_t 
 
 void qcar_q_from_f32(qcar_q_t *q, const qcar_f32_t *m, uint8_t *status)
 {
+    float inv_k = 1.0f / m->k_us;
     *q = (qcar_q_t){
-        .k1 = fx_from_float(m->k1, 8, status),
         .k2 = fx_from_float(m->k2, 8, status),
-        .k3 = fx_from_float(m->k3, 8, status),
-        .k_us = fx_from_float(m->k_us, 8, status),
-        .c1 = fx_from_float(m->c1, 16, status),
-        .c2 = fx_from_float(m->c2, 16, status),
-        .inv_m_s = fx_from_float(1.0f / m->m_s, 36, status),
-        .inv_m_us = fx_from_float(1.0f / m->m_us, 36, status),
-        .inv_k_us = fx_from_float(1.0f / m->k_us, 44, status),
-        .m_s = fx_from_float(m->m_s, 16, status),
-        .m_us = fx_from_float(m->m_us, 16, status),
+        .k3 = fx_factor(m->k3, -20, status),
+        .c2 = fx_factor(m->c2, -8, status),
+        .inv_m_s = fx_factor(1.0f / m->m_s, 4, status),
+        .inv_m_us = fx_factor(1.0f / m->m_us, 4, status),
+        .r_m_us = fx_factor(m->m_us * inv_k, 8, status),
+        .r_m_s = fx_factor(m->m_s * inv_k, 8, status),
+        .r_k1 = fx_factor(m->k1 * inv_k, 0, status),
+        .r_c1 = fx_factor(m->c1 * inv_k, 4, status),
+        .r_force = fx_factor(inv_k, 12, status),
     };
 }
 
@@ -39,17 +39,10 @@ float qcar_strut_f32(const qcar_f32_t *m, float dx, float dv, uint8_t nonlinear_
     return nonlinear_only ? f : f + m->k1 * dx + m->c1 * dv;
 }
 
-int32_t qcar_strut_q(const qcar_q_t *m, int32_t dx, int32_t dv, uint8_t nonlinear_only,
-                     uint8_t *status)
+int32_t qcar_strut_nl_q(const qcar_q_t *m, int32_t dx, int32_t dv, uint8_t *status)
 {
-    int32_t k = fx_add(m->k2, fx_mul(m->k3, 8, dx, 28, 8, status), status); /* Q8 */
+    int32_t k = fx_add(m->k2, fx_mul_f(dx, m->k3, status), status); /* Q8 */
     int32_t dx2 = fx_mul(dx, 28, dx, 28, 28, status);
     int32_t dv2 = fx_mul(dv, 24, dv, 24, 24, status);
-    int32_t f = fx_add(fx_mul(k, 8, dx2, 28, 16, status), fx_mul(m->c2, 16, dv2, 24, 16, status),
-                       status);
-    if (nonlinear_only) {
-        return f;
-    }
-    f = fx_add(f, fx_mul(m->k1, 8, dx, 28, 16, status), status);
-    return fx_add(f, fx_mul(m->c1, 16, dv, 24, 16, status), status);
+    return fx_add(fx_mul(k, 8, dx2, 28, 16, status), fx_mul_f(dv2, m->c2, status), status);
 }

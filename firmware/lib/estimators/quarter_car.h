@@ -8,6 +8,7 @@
 #include <stdint.h>
 
 #include "estimators/params.h"
+#include "fixmath/fixmath.h"
 
 #define QCAR_N_PARAMS 8u
 
@@ -15,11 +16,14 @@ typedef struct {
     float m_s, m_us, k1, k2, k3, c1, c2, k_us;
 } qcar_f32_t;
 
-/* Fixed point: stiffnesses Q8 (N/m, N/m², N/m³), dampings Q16, masses as 1/m Q36
- * (1/(m s²) per N), 1/k_us Q44 (m/N), m_s and m_us Q16. */
+/* Fixed point: the strut's nonlinear terms k2 (Q8, N/m²), k3 and c2 as factors (fx_factor_t)
+ * from Δx Q28 to Q8 and from Δẋ² Q24 to N Q16; the masses as 1/m from N Q16 to m/s² Q20;
+ * the tire's equation over k_us as factors to metres Q28, from F̂ Q20 (m_us/k_us, m_s/k_us),
+ * Δx Q28 (k1/k_us), Δẋ Q24 (c1/k_us) and N Q16 (1/k_us). */
 typedef struct {
-    int32_t k1, k2, k3, k_us, c1, c2;
-    int32_t inv_m_s, inv_m_us, inv_k_us, m_s, m_us;
+    int32_t k2;
+    fx_factor_t k3, c2, inv_m_s, inv_m_us;
+    fx_factor_t r_m_us, r_m_s, r_k1, r_c1, r_force;
 } qcar_q_t;
 
 extern const ROM param_range_t qcar_ranges[QCAR_N_PARAMS];
@@ -30,8 +34,7 @@ void qcar_q_from_f32(qcar_q_t *q, const qcar_f32_t *m, uint8_t *status);
 
 /* f_s + f_d at deflection dx, rate dv (eq. 2); `nonlinear_only` leaves out k1 dx + c1 dv. */
 float qcar_strut_f32(const qcar_f32_t *m, float dx, float dv, uint8_t nonlinear_only);
-/* The same in fixed point: dx Q28 (m), dv Q24 (m/s) -> N Q16. */
-int32_t qcar_strut_q(const qcar_q_t *m, int32_t dx, int32_t dv, uint8_t nonlinear_only,
-                     uint8_t *status);
+/* k2 Δx² + k3 Δx³ + c2 Δẋ² in fixed point: dx Q28 (m), dv Q24 (m/s) -> N Q16. */
+int32_t qcar_strut_nl_q(const qcar_q_t *m, int32_t dx, int32_t dv, uint8_t *status);
 
 #endif

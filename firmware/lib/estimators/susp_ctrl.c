@@ -37,19 +37,21 @@ void susp_ctrl_design_f32(susp_ctrl_f32_t *c, const uint8_t *params, uint8_t fir
     };
 }
 
-void susp_ctrl_q_from_f32(susp_ctrl_q_t *q, const susp_ctrl_f32_t *c, uint8_t *status)
+uint8_t susp_ctrl_q_from_f32(susp_ctrl_q_t *q, const susp_ctrl_f32_t *c)
 {
+    uint8_t st = 0, *status = &st;
     *q = (susp_ctrl_q_t){
-        .g_F1 = fx_from_float(c->g_F1, 16, status),
-        .g_F2 = fx_from_float(c->g_F2, 16, status),
-        .g_dx = fx_from_float(c->g_dx, 8, status),
-        .g_dv = fx_from_float(c->g_dv, 12, status),
-        .g_td = fx_from_float(c->g_td, 8, status),
-        .g_vus = fx_from_float(c->g_vus, 12, status),
-        .g_vs = fx_from_float(c->g_vs, 12, status),
+        .g_F1 = fx_factor(c->g_F1, 8 - 20, status),
+        .g_F2 = fx_factor(c->g_F2, 8 - 20, status),
+        .g_dx = fx_factor(c->g_dx, 8 - 28, status),
+        .g_dv = fx_factor(c->g_dv, 8 - 24, status),
+        .g_td = fx_factor(c->g_td, 8 - 28, status),
+        .g_vus = fx_factor(c->g_vus, 8 - 24, status),
+        .g_vs = fx_factor(c->g_vs, 8 - 24, status),
         .u_max = fx_from_float(c->u_max, 16, status),
         .active = c->active,
     };
+    return st != 0 ? P_R + 1u : 0u; /* a larger force weight lowers every gain */
 }
 
 float susp_ctrl_step_f32(const susp_ctrl_f32_t *c, const susp_est_f32_t *e, uint8_t *status)
@@ -73,13 +75,14 @@ int32_t susp_ctrl_step_q(const susp_ctrl_q_t *c, const susp_est_q_t *e, uint8_t 
         return 0;
     }
     uint8_t *s = status;
-    int32_t u = fx_mul(c->g_F1, 16, e->F1, 20, 16, s);
-    u = fx_add(u, fx_mul(c->g_F2, 16, e->F2, 20, 16, s), s);
-    u = fx_add(u, fx_mul(c->g_dx, 8, fx_sub(e->x_s, e->x_us, s), 28, 16, s), s);
-    u = fx_add(u, fx_mul(c->g_dv, 12, fx_sub(e->v_s, e->v_us, s), 24, 16, s), s);
-    u = fx_add(u, fx_mul(c->g_td, 8, fx_sub(e->x_us, e->x_r, s), 28, 16, s), s);
-    u = fx_add(u, fx_mul(c->g_vus, 12, e->v_us, 24, 16, s), s);
-    u = fx_sub(fx_neg(u, s), fx_mul(c->g_vs, 12, e->v_s, 24, 16, s), s);
+    int32_t u = fx_mul_f(e->F1, c->g_F1, s); /* N Q8 */
+    u = fx_add(u, fx_mul_f(e->F2, c->g_F2, s), s);
+    u = fx_add(u, fx_mul_f(fx_sub(e->x_s, e->x_us, s), c->g_dx, s), s);
+    u = fx_add(u, fx_mul_f(fx_sub(e->v_s, e->v_us, s), c->g_dv, s), s);
+    u = fx_add(u, fx_mul_f(fx_sub(e->x_us, e->x_r, s), c->g_td, s), s);
+    u = fx_add(u, fx_mul_f(e->v_us, c->g_vus, s), s);
+    u = fx_sub(fx_neg(u, s), fx_mul_f(e->v_s, c->g_vs, s), s);
+    u = fx_rescale(u, 8, 16, s);
     if (u > c->u_max || u < -c->u_max) {
         *status |= STATUS_CLAMPED;
         u = u > 0 ? c->u_max : -c->u_max;

@@ -4,7 +4,9 @@
  *   u* = -(g_F1 F̂1 + g_F2 F̂2 + g_dx Δx + g_dv Δẋ + g_td (x̂_us - x̂_r) + g_vus ẋ̂_us + g_vs ẋ̂_s),
  * then |u| <= u_max (STATUS_CLAMPED when it bites). `active` 0: u = 0 (passive).
  * Params (8): active Q0, ρ_a Q16, ρ_sd Q8, ρ_td Q8, ρ_v Q8, r Q40, h Q30, u_max Q16.
- * Fixed point gains: g_F Q16 (N s²/m), g_dx, g_td Q8 (N/m), g_dv, g_v Q12 (N s/m). */
+ * Fixed point: each gain a factor (fx_factor_t) from its estimate's Q to N in Q8, the sum
+ * rescaled to u's Q16 (0.004 N steps against a u_max of hundreds of N); a gain that does
+ * not fit (128 N per unit of the estimate's Q) is refused at CONFIG. */
 #ifndef VEHIL_ESTIMATORS_SUSP_CTRL_H
 #define VEHIL_ESTIMATORS_SUSP_CTRL_H
 
@@ -12,6 +14,7 @@
 
 #include "estimators/params.h"
 #include "estimators/quarter_car.h"
+#include "fixmath/fixmath.h"
 
 #define SUSP_CTRL_N_PARAMS 8u
 
@@ -21,7 +24,8 @@ typedef struct {
 } susp_ctrl_f32_t;
 
 typedef struct {
-    int32_t g_F1, g_F2, g_dx, g_dv, g_td, g_vus, g_vs, u_max;
+    fx_factor_t g_F1, g_F2, g_dx, g_dv, g_td, g_vus, g_vs;
+    int32_t u_max; /* Q16 */
     uint8_t active;
 } susp_ctrl_q_t;
 
@@ -38,7 +42,8 @@ extern const ROM param_range_t susp_ctrl_ranges[SUSP_CTRL_N_PARAMS];
 
 void susp_ctrl_design_f32(susp_ctrl_f32_t *c, const uint8_t *params, uint8_t first,
                           uint8_t mode, const qcar_f32_t *m);
-void susp_ctrl_q_from_f32(susp_ctrl_q_t *q, const susp_ctrl_f32_t *c, uint8_t *status);
+/* 0, or 1 + the index of the parameter to change (r_u) when a gain does not fit. */
+uint8_t susp_ctrl_q_from_f32(susp_ctrl_q_t *q, const susp_ctrl_f32_t *c);
 
 float susp_ctrl_step_f32(const susp_ctrl_f32_t *c, const susp_est_f32_t *e, uint8_t *status);
 /* u in N, Q16. */

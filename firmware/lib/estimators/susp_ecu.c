@@ -39,12 +39,14 @@ void susp_ecu_configure_f32(susp_ecu_f32_t *e, const uint8_t *params, uint8_t fi
     susp_ecu_reset_f32(e);
 }
 
-void susp_ecu_q_from_f32(susp_ecu_q_t *q, const susp_ecu_f32_t *e, uint8_t *status)
+uint8_t susp_ecu_q_from_f32(susp_ecu_q_t *q, const susp_ecu_f32_t *e)
 {
-    accel_cond_q_from_f32(&q->cond, &e->cond, status);
-    qcar_q_from_f32(&q->model, &e->model, status);
-    susp_ctrl_q_from_f32(&q->ctrl, &e->ctrl, status);
+    uint8_t status = 0; /* the ranges keep the conditioning's and the model's factors below 128 */
+    accel_cond_q_from_f32(&q->cond, &e->cond, &status);
+    qcar_q_from_f32(&q->model, &e->model, &status);
+    uint8_t bad = susp_ctrl_q_from_f32(&q->ctrl, &e->ctrl);
     susp_ecu_reset_q(q);
+    return bad != 0 ? (uint8_t)(ACCEL_COND_N_PARAMS + QCAR_N_PARAMS + bad) : 0u;
 }
 
 void susp_ecu_reset_f32(susp_ecu_f32_t *e)

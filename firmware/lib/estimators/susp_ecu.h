@@ -39,7 +39,8 @@ uint8_t susp_ecu_check(const uint8_t *params, uint8_t mode, const param_range_t 
 /* Designs from CONFIG (the tail at `first`); the float model is also what FIXED starts from. */
 void susp_ecu_configure_f32(susp_ecu_f32_t *e, const uint8_t *params, uint8_t first,
                             uint8_t mode, float T);
-void susp_ecu_q_from_f32(susp_ecu_q_t *q, const susp_ecu_f32_t *e, uint8_t *status);
+/* 0, or 1 + the index (in the tail) of the parameter whose fixed-point form does not fit. */
+uint8_t susp_ecu_q_from_f32(susp_ecu_q_t *q, const susp_ecu_f32_t *e);
 
 /* Memories back to zero (the filters and the held force), the design kept. */
 void susp_ecu_reset_f32(susp_ecu_f32_t *e);

@@ -117,6 +117,67 @@ int32_t fx_smul_f_c(int32_t a, uint16_t m, uint8_t sh)
     return fx_smul_f(a, (fx_ufactor_t){.m = m, .sh = sh});
 }
 
+fx_factor_t fx_factor(float x, int8_t e, uint8_t *status)
+{
+    uint8_t neg = x < 0.0f;
+    float u = neg ? -x : x;
+    if (!(u > 0.0f) || u > 3.0e38f) { /* 0, or not finite: fx_from_float flags NaN */
+        (void)fx_from_float(u, 0, status);
+        return (fx_factor_t){.m = 0, .sh = 16};
+    }
+    int16_t sh = (int16_t)(16 - e); /* u in [1/2, 1) by exact halvings and doublings */
+    while (u >= 1.0f) {
+        u *= 0.5f;
+        sh--;
+    }
+    while (u < 0.5f) {
+        u *= 2.0f;
+        sh++;
+    }
+    int32_t m = fx_from_float(u, 16, status); /* [2^15, 2^16] */
+    if (m == 0x10000) {
+        m = 0x8000;
+        sh--;
+    }
+    if (sh > 47) { /* below 2^-32: its products round to 0 or +-1 */
+        return (fx_factor_t){.m = 0, .sh = 16};
+    }
+    if (sh < 9) {
+        *status |= STATUS_SATURATED;
+        m = 0xffff;
+        sh = 9;
+    }
+    return (fx_factor_t){.m = (uint16_t)m, .sh = (uint8_t)((uint8_t)sh | (neg ? 0x80u : 0u))};
+}
+
+float fx_factor_value(fx_factor_t f)
+{
+    float v = (float)f.m;
+    for (uint8_t i = f.sh & 0x3fu; i > 0u; i--) {
+        v *= 0.5f;
+    }
+    return (f.sh & 0x80u) ? -v : v;
+}
+
+int32_t fx_mul_f_c(int32_t a, uint16_t m, uint8_t sh, uint8_t *status)
+{
+    uint8_t s = sh & 0x3fu;
+    uint64_t p = (uint64_t)(a < 0 ? 0u - (uint32_t)a : (uint32_t)a) * m;
+    p = (p + ((uint64_t)1 << (s - 1u))) >> s; /* the magnitude, rounded half up */
+    if ((a < 0) != ((sh & 0x80u) != 0u)) {
+        if (p > 0x80000000u) {
+            *status |= STATUS_SATURATED;
+            return FX_MIN;
+        }
+        return (int32_t)(0u - (uint32_t)p);
+    }
+    if (p > 0x7fffffffu) {
+        *status |= STATUS_SATURATED;
+        return FX_MAX;
+    }
+    return (int32_t)p;
+}
+
 int32_t fx_mul_shr_c(int32_t a, int32_t b, uint8_t s, uint8_t *status)
 {
     return fx_sat(((int64_t)a * b + ((int64_t)1 << (s - 1u))) >> s, status);

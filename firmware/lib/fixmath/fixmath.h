@@ -332,6 +332,41 @@ FX_INLINE int32_t fx_smul_f(int32_t a, fx_ufactor_t f)
 
 int32_t fx_smul_f_c(int32_t a, uint16_t m, uint8_t sh);
 
+/* A signed constant factor of any magnitude below 128 kept to 16 significant bits: f = ±m 2^-sh
+ * with m in [2^15, 2^16) (relative error <= 2^-17), 9 <= sh <= 47, the sign in sh's bit 7.
+ * A coefficient and its Q conversion in one: a Q_in value times f is the product in Q_out
+ * when f = c 2^(q_out - q_in), so one multiply, at a shift chosen at CONFIG, costs a 32 x 16
+ * product (fx_mul_f_avr.S) where a coefficient in a fixed Q costs a 32 x 32 one, and a small
+ * coefficient keeps its 16 bits whatever its scale (docs/estimators/eso.md).
+ * fx_factor (configure time): x 2^e; 0 below 2^-32; at 128 or past it the largest, and
+ * STATUS_SATURATED. The same bits on both builds (exact doublings, fx_from_float). */
+typedef struct {
+    uint16_t m;
+    uint8_t sh;
+} fx_factor_t;
+
+fx_factor_t fx_factor(float x, int8_t e, uint8_t *status);
+
+/* f's value (configure time), exact in a float. */
+float fx_factor_value(fx_factor_t f);
+
+/* a f rounded to nearest, ties away from zero, saturated to int32 (flagged). On the AVR an
+ * assembly kernel (fx_mul_f_avr.S: eight hardware products, the shift by bytes then at most
+ * seven bits, ~95-115 cycles); the C twin gives the same bits on the host. */
+int32_t fx_mul_f_c(int32_t a, uint16_t m, uint8_t sh, uint8_t *status);
+#if defined(__AVR__)
+int32_t fx_mul_f_avr(int32_t a, uint16_t m, uint8_t sh, uint8_t *status);
+FX_INLINE int32_t fx_mul_f(int32_t a, fx_factor_t f, uint8_t *status)
+{
+    return fx_mul_f_avr(a, f.m, f.sh, status);
+}
+#else
+FX_INLINE int32_t fx_mul_f(int32_t a, fx_factor_t f, uint8_t *status)
+{
+    return fx_mul_f_c(a, f.m, f.sh, status);
+}
+#endif
+
 /* a (qa) * b (qb) -> q_out, ties away from zero; qa + qb <= q_out (no fraction bit to
  * drop) or a shift past 62 goes through int64 (fx_mul_wide). */
 int32_t fx_mul_wide(int32_t a, uint8_t qa, int32_t b, uint8_t qb, uint8_t q_out, uint8_t *status);
