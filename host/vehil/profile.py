@@ -220,14 +220,23 @@ def footprint(name: str) -> dict[str, int]:
     """Flash and static RAM the estimator adds to the image: the default image's set (or
     all, for one the default leaves out) built with and without it, the difference of the
     two ELFs. Helpers and tables it alone uses count; what it shares with others, and the
-    state area up to the largest other state, do not."""
-    from vehil.build import registry
+    state area up to the largest other state, do not. In a project, its image's set with
+    its C (vehil.toml), with and without the estimator."""
+    from vehil import project
+    from vehil.build import project_image, registry
     from vehil.build.budget import budget
     from vehil.build.platformio import build_image, default_estimators
 
-    chosen = default_estimators()
-    base = chosen if name in registry.select(chosen) else "all"
-    with_it, without = budget(build_image(base)), budget(build_image(f"{base} -{name}"))
+    here = project.current()
+    c_sources = here.c_sources if here else ()
+    chosen = project_image(here) if here else default_estimators()
+    base = chosen if name in registry.select(chosen, c_sources) else "all"
+    words = base.split()
+    if not words or words[0] == "all":
+        others = f"{base} -{name}"
+    else:
+        others = " ".join(w for w in words if w != name)
+    with_it, without = budget(build_image(base, c_sources)), budget(build_image(others, c_sources))
     return {
         "flash": with_it.flash - without.flash,
         "ram": with_it.static_ram - without.static_ram,
