@@ -21,7 +21,7 @@ from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
-from vehil import campaign, plants, runner
+from vehil import campaign, plants, record, runner
 from vehil.boards import Board
 from vehil.compare import Figures
 from vehil.paths import runs_dir
@@ -37,6 +37,38 @@ class Drive:
     seed: int
     drawn: dict[str, float]  # the perturbed plant parameters' values
     figures: Figures
+    # Per output in metres, where the estimator's truth is band-limited (in_band_errors):
+    # RMS error against the in-band truth, and that truth's RMS (the all-zero estimate's).
+    in_band: dict[str, dict[str, float]] = dataclasses.field(default_factory=dict)
+
+
+IN_BAND = "RMS vs in-band truth"
+ZERO = "in-band truth RMS (zero estimate)"
+MEASURES = ("max abs error vs float64", "RMS vs truth", "RMS vs truth, float64 ref", IN_BAND, ZERO)
+
+
+def in_band_errors(scenario: Scenario, recording: Path) -> dict[str, dict[str, float]]:
+    """For an estimator whose spec has an `in_band` hook (its estimates see the truth only
+    through a band, e.g. the accelerometer conditioning of the ESO and the KF-UI): each
+    output in metres against that band's truth, from score_from_s, and the in-band truth's
+    own RMS, which is what estimating nothing scores. Empty for any other estimator."""
+    band = scenario.estimator.extra.get("in_band")
+    if not callable(band):
+        return {}
+    rec = record.read(recording)
+    k0 = int(np.searchsorted(rec.data["t"], scenario.score_from_s - 1e-9))
+    found = {}
+    for o in scenario.estimator.outputs:
+        column = f"truth.{o.name}"
+        if o.unit != "m" or column not in rec.data:
+            continue
+        truth = band(rec.data[column], scenario.params)[k0:]
+        error = rec.data[f"board.{o.name}"][k0:] - truth
+        found[o.name] = {
+            IN_BAND: float(np.sqrt(np.mean(error**2))),
+            ZERO: float(np.sqrt(np.mean(truth**2))),
+        }
+    return found
 
 
 @dataclass(frozen=True)
@@ -49,33 +81,41 @@ class Sweep:
     drives: list[Drive]
     out: Path
 
+    @staticmethod
+    def _measures(d: Drive, name: str) -> dict[str, float | None]:
+        o = d.figures.outputs[name]
+        found: dict[str, float | None] = {"max abs error vs float64": o.reference.max_abs}
+        if o.truth is not None:
+            found["RMS vs truth"] = o.truth.rmse
+            found["RMS vs truth, float64 ref"] = o.truth.reference_rmse
+        found.update(d.in_band.get(name, {}))
+        return found
+
     def errors(self) -> dict[str, dict[str, np.ndarray]]:
         """Per output, per measure, one value per perturbed drive (NaN where none)."""
         found: dict[str, dict[str, np.ndarray]] = {}
         for name in self.nominal.figures.outputs:
-            o = [d.figures.outputs[name] for d in self.drives]
-            measures = {"max abs error vs float64": [x.reference.max_abs for x in o]}
-            if all(x.truth is not None for x in o):
-                measures["RMS vs truth"] = [x.truth.rmse for x in o]  # type: ignore[union-attr]
-                measures["RMS vs truth, float64 ref"] = [
-                    x.truth.reference_rmse  # type: ignore[union-attr]
-                    for x in o
-                ]
+            each = [self._measures(d, name) for d in self.drives]
             found[name] = {
-                m: np.array([np.nan if v is None else v for v in vs], dtype=np.float64)
-                for m, vs in measures.items()
+                m: np.array([np.nan if x.get(m) is None else x[m] for x in each], dtype=np.float64)
+                for m in MEASURES
+                if all(m in x for x in each)
             }
         return found
+
+    def beats_zero(self) -> dict[str, int]:
+        """Per output scored in band: on how many drives it beats estimating nothing."""
+        return {
+            name: int(np.sum(found[IN_BAND] < found[ZERO]))
+            for name, found in self.errors().items()
+            if IN_BAND in found
+        }
 
     def distributions(self) -> list[dict[str, Any]]:
         rows = []
         for name, measures in self.errors().items():
             o = self.nominal.figures.outputs[name]
-            nominal = {
-                "max abs error vs float64": o.reference.max_abs,
-                "RMS vs truth": o.truth.rmse if o.truth else None,
-                "RMS vs truth, float64 ref": o.truth.reference_rmse if o.truth else None,
-            }
+            nominal = self._measures(self.nominal, name)
             for measure, x in measures.items():
                 ok = x[np.isfinite(x)]
                 rows.append(
@@ -83,7 +123,7 @@ class Sweep:
                         "output": name,
                         "unit": o.unit,
                         "measure": measure,
-                        "nominal": nominal[measure],
+                        "nominal": nominal.get(measure),
                         "median": float(np.median(ok)) if len(ok) else None,
                         "p95": float(np.percentile(ok, 95)) if len(ok) else None,
                         "worst": float(ok.max()) if len(ok) else None,
@@ -130,6 +170,7 @@ class Sweep:
             "distributions": self.distributions(),
             "flags": self.flags(),
             "verdicts": self.verdicts(),
+            "beats_zero_in_band": self.beats_zero(),
             "drives": [
                 {
                     "index": d.index,
@@ -143,6 +184,7 @@ class Sweep:
                         }
                         for n, o in d.figures.outputs.items()
                     },
+                    "in_band": d.in_band,
                     "status": d.figures.status,
                 }
                 for d in (self.nominal, *self.drives)
@@ -246,7 +288,7 @@ def run(
         ]
         campaign.write_dataset(campaign.rows(done, extra), out / "results")
     found_drives = [
-        Drive(i, job.scenario.seed, draws[i], f)
+        Drive(i, job.scenario.seed, draws[i], f, in_band_errors(job.scenario, job.recording))
         for i, (job, f) in enumerate(zip(jobs, figures, strict=True))
     ]
     return Sweep(scenario, board_name, found, shared, found_drives[0], found_drives[1:], out)
@@ -292,8 +334,14 @@ def distribution_table(s: Sweep) -> Table:
     varied = "; ".join(f"{n} {p.how} {p.unit}" for n, p in s.perturbations.items())
     follows = f"; the estimator follows {', '.join(s.matched)}" if s.matched else ""
     verdicts = ", ".join(f"{w} {n}" for w, n in s.verdicts().items())
-    t.caption = f"varied: {varied}{follows}; verdicts: {verdicts}"
+    t.caption = f"varied: {varied}{follows}; verdicts: {verdicts}{_beats_zero(s)}"
     return t
+
+
+def _beats_zero(s: Sweep) -> str:
+    found = s.beats_zero()
+    said = ", ".join(f"{n} on {k}/{len(s.drives)} drives" for n, k in found.items())
+    return f"; in band, better than the zero estimate: {said}" if found else ""
 
 
 def flag_table(s: Sweep) -> Table:
@@ -378,7 +426,7 @@ def write(s: Sweep) -> Path:
     verdicts = ", ".join(f"{w} {n}" for w, n in s.verdicts().items())
     lines += [
         "",
-        f"Verdicts against the scenario's tolerances: {verdicts}.",
+        f"Verdicts against the scenario's tolerances: {verdicts}{_beats_zero(s)}.",
         "",
         "![distributions](sweep.png)",
         "",

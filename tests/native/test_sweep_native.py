@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 
 import pytest
@@ -74,3 +75,23 @@ def test_cli_json(built, tmp_path, capsys) -> None:  # noqa: ANN001
     assert data["board"] == "native" and len(data["drives"]) == 3
     assert {r["output"] for r in data["distributions"]} == {"v", "rg"}
     assert (tmp_path / "sweep.md").exists()
+
+
+def test_an_estimator_that_sees_a_band_is_scored_in_it_too(built, tmp_path) -> None:  # noqa: ANN001
+    """The paper's ESO sees the road only through its conditioning's band: the sweep scores
+    its displacements against that band's truth as well, beside the all-zero estimate's
+    error there; the paper's tuning does worse than estimating nothing (README)."""
+    sc = dataclasses.replace(scenario.load("sweep-eso"), duration=6.0)
+    s = sweep.run(sc, sweep.perturbations(sc, {}), 2, "native", out=tmp_path)
+    assert {"x_s", "x_us", "x_r"} <= {
+        r["output"] for r in s.distributions() if r["measure"] == sweep.IN_BAND
+    }
+    in_band, zero = _row(s, "x_r", sweep.IN_BAND), _row(s, "x_r", sweep.ZERO)
+    assert 0 < zero["median"] < _row(s, "x_r", "RMS vs truth")["median"]  # the band's part
+    assert in_band["median"] > zero["median"] and s.beats_zero()["x_r"] == 0
+    assert "in band, better than the zero estimate: x_s on" in sweep.write(s).read_text()
+
+
+def test_an_estimator_that_sees_the_whole_truth_is_not(uiiekf3) -> None:  # noqa: ANN001
+    s = uiiekf3[False]
+    assert s.beats_zero() == {} and all(d.in_band == {} for d in s.drives)

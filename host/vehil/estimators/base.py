@@ -66,6 +66,8 @@ class EstimatorSpec:
     paper: str = ""  # the seed note it follows, e.g. "004-acc-speed-kalman-patent"
     delay: int = 0  # samples: output k estimates the truth at sample k - delay
     doc: str = ""
+    # Optional hooks by name. "in_band": (truth, params) -> that truth as the estimates can
+    # see it (a band-limited one); `vehil sweep` scores the outputs in metres against it too.
     extra: dict[str, object] = field(default_factory=dict)
     # Cycles per step the estimator must keep on the ATmega2560, by mode: the median over
     # its scenario, stop-and-wait (`vehil profile --budgets` checks them).

@@ -35,7 +35,7 @@ from typing import NamedTuple, Protocol
 import numpy as np
 
 from vehil.estimators import register
-from vehil.estimators._accel_conditioning import Channel
+from vehil.estimators._accel_conditioning import Channel, band_limit
 from vehil.estimators._accel_conditioning import params as conditioning_params
 from vehil.estimators._suspension_control import PARAMS as CONTROL_PARAMS
 from vehil.estimators._suspension_control import PredictiveController
@@ -208,6 +208,12 @@ class Ecu:
         return np.array([*x, F1, F2, x_r, self.u])
 
 
+def in_band(x: np.ndarray, p: Mapping[str, float]) -> np.ndarray:
+    """A displacement truth as the estimates can see it: through the conditioning's band
+    (the ECUs' `in_band`, which `vehil sweep` scores their displacements against)."""
+    return band_limit(x, p["T"], p["f_hp"], p["f_lp"], p["f_post"])
+
+
 def ecu(p: Mapping[str, float]) -> Ecu:
     """The board's task with the observer the parameters name (variant A or B)."""
     return Ecu(p)
@@ -254,5 +260,6 @@ SPEC = register(
         ),
         rules=(gains_fit_fixed,),
         paper="003-eso-quarter-car",
+        extra={"in_band": in_band},
     )
 )

@@ -24,7 +24,7 @@ from vehil.estimators._accel_conditioning import params as conditioning_params
 from vehil.estimators._health import NisWindow, nis_outside, outside_3sigma
 from vehil.estimators._suspension_control import PARAMS as CONTROL_PARAMS
 from vehil.estimators.base import EstimatorSpec, Param
-from vehil.estimators.eso import INPUTS, OUTPUTS, T_PARAM, Ecu, Measured
+from vehil.estimators.eso import INPUTS, OUTPUTS, T_PARAM, Ecu, Measured, in_band
 from vehil.models.quarter_car import model_params, nominal
 
 
@@ -154,5 +154,6 @@ SPEC = register(
         ),
         modes=("F32",),
         paper="003-eso-quarter-car",
+        extra={"in_band": in_band},
     )
 )
