@@ -1,8 +1,10 @@
 """A plant is the ground truth: it simulates a vehicle and its sensors.
 
-An open-loop plant returns the whole drive at once (vectorised, seeded): the
-time base, the measured signals an estimator takes as inputs, and the true
-values of what estimators estimate. Names are the estimators' signal names, so
+An open-loop plant returns a drive (seeded): the time base, the measured signals an
+estimator takes as inputs, and the true values of what estimators estimate. Most plants
+also `stream` it, chunk by chunk with the same samples, so a run of any length holds a
+few chunks; one that does not (braking: its sensor model filters the whole drive) is
+made whole and sliced. Names are the estimators' signal names, so
 the runner wires plant to estimator by name (a scenario can rename).
 
 A plant that can also close the loop gives a `loop` factory: a LoopPlant the
