@@ -38,6 +38,37 @@ typedef struct {
                                        estimator_load leaves it in flash */
 } estimator_t;
 
+/* An opaque slot in an estimator's state for a vendored library's object, whose type the
+ * registry cannot see (a header with no include guard, a C++ class): the wrapper's header
+ * puts `VEHIL_SLOT(bytes) name;` in NAME_state_t, and its source, which includes the
+ * library, checks the type fits with VEHIL_SLOT_CHECK (docs/extending.md). */
+#define VEHIL_SLOT(bytes)      \
+    union {                    \
+        uint8_t bytes_[bytes]; \
+        float align_f_;        \
+        uint32_t align_u_;     \
+        void *align_p_;        \
+    }
+#ifdef __cplusplus
+#define VEHIL_STATIC_ASSERT(cond, message) static_assert(cond, message)
+#else
+/* GCC and clang have the keyword in C99 too; glibc turns it into a macro before C11 that
+ * fails with a negative bit-field and drops the message: the keyword, then. */
+#ifdef _Static_assert
+#undef _Static_assert
+#endif
+#define VEHIL_STATIC_ASSERT(cond, message) _Static_assert(cond, message)
+#endif
+/* At file scope: `VEHIL_SLOT_CHECK(lib_type, NAME_state_t, member);` fails the build, on
+ * the host and on the chip (where sizes differ), when the library's type is larger or
+ * more aligned than its slot. */
+#define VEHIL_SLOT_CHECK(type, state_type, member)                                        \
+    VEHIL_STATIC_ASSERT(sizeof(type) <= sizeof(((state_type *)0)->member) &&              \
+                            __alignof__(type) <= __alignof__(((state_type *)0)->member), \
+                        #type " does not fit " #state_type "." #member                    \
+                        ": raise the size in its VEHIL_SLOT")
+#define VEHIL_SLOT_AS(type, slot) ((type *)(void *)(slot).bytes_)
+
 /* The registry: indices 0 .. estimator_count() - 1. */
 uint8_t estimator_count(void);
 /* Index of the estimator with this wire id, or estimator_count() if none. */

@@ -1,0 +1,79 @@
+"""Two libraries used as they came, through their manifests (tests/fixtures/vendoring):
+a header-only C alpha-beta tracker (static functions, no include guard, `double` unless
+configured) and an Arduino-style C++ class whose .cpp includes Arduino.h, each wrapped as
+an estimator in an opaque, size-checked state slot. The project's image holds only them;
+they run on the native board, simavr and QEMU with the same bits, within float32's
+rounding of the float64 reference (the project's own check_boards.py)."""
+
+import fcntl
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from vehil.paths import BUILD_DIR
+
+pytestmark = pytest.mark.hil
+
+PROJECT = Path(__file__).resolve().parents[1] / "fixtures" / "vendoring"
+CACHE = BUILD_DIR / "vendoring-fixture"  # kept between runs: the builds are incremental
+
+
+def _vehil(*argv: str) -> subprocess.CompletedProcess:
+    return _vehil_python("-m", "vehil", *argv)
+
+
+def _vehil_python(*argv: str, timeout: float = 900) -> subprocess.CompletedProcess:
+    """Python in the project's folder, with the project's cache."""
+    env = {k: v for k, v in os.environ.items() if k != "VEHIL_PROJECT"}
+    env["VEHIL_CACHE"] = str(CACHE)
+    return subprocess.run(
+        [sys.executable, *argv],
+        cwd=PROJECT,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+    )
+
+
+@pytest.fixture(scope="module")
+def project_built() -> subprocess.CompletedProcess:
+    """`vehil build` in the project, one worker at a time (they share its cache)."""
+    CACHE.mkdir(parents=True, exist_ok=True)
+    with (CACHE / ".lock").open("w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        built = _vehil("build")
+    assert built.returncode == 0, built.stdout + built.stderr
+    return built
+
+
+def test_the_image_holds_the_two_wrappers_and_no_example_of_the_libraries(project_built) -> None:  # noqa: ANN001
+    info = _vehil("info", "--board", "simavr")
+    assert info.returncode == 0, info.stderr
+    assert "abf_speed (F32" in info.stdout and "speed_obs (F32" in info.stdout
+    assert "manf" not in info.stdout  # only the project's estimators (and passthrough)
+    objects = {p.stem for p in CACHE.rglob("*.o")}
+    assert any(o.startswith("SpeedObserver") for o in objects)
+    assert not any(o.startswith(("demo", "host_test", "Basic")) for o in objects)
+
+
+def test_on_native_simavr_and_qemu_the_same_bits_within_float64(project_built) -> None:  # noqa: ANN001
+    """The project's own check (check_boards.py), run as its CI would: pytest in its
+    folder, vehil's pytest plugin running the scenarios on each board."""
+    done = _vehil_python(
+        "-m",
+        "pytest",
+        "-q",
+        "-p",
+        "no:cacheprovider",
+        "--confcutdir",
+        str(PROJECT),
+        "--rootdir",
+        str(PROJECT),
+        "check_boards.py",
+    )
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert "2 passed" in done.stdout
