@@ -18,8 +18,8 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
-from vehil import estimators
-from vehil.build import native, registry
+from vehil import estimators, project
+from vehil.build import native, project_image, registry
 from vehil.build.objects import Unit, compile_units, link
 from vehil.errors import BuildError
 from vehil.paths import BUILD_DIR, DATA_ROOT
@@ -50,11 +50,14 @@ def build() -> Path:
     cxx = shutil.which("clang++") or cc.replace("clang", "clang++")
     FUZZ_DIR.mkdir(parents=True, exist_ok=True)
     sanitizers = ["-fsanitize=fuzzer,address,undefined", "-fno-sanitize-recover=all"]
-    gen = registry.write(FUZZ_DIR / "gen", registry.select("all")).parent  # every estimator
+    # Every estimator, or a project's image's set with its C (vehil.toml)
+    here = project.current()
+    chosen, c_sources = (project_image(here), here.c_sources) if here else ("all", ())
+    gen = registry.write(FUZZ_DIR / "gen", registry.select(chosen, c_sources), c_sources).parent
     todo = [
         # clang warns about more than gcc: its warnings do not stop the fuzzer
         Unit(u.source, (*(f for f in u.flags if f != "-Werror"), "-g", *sanitizers), u.cxx)
-        for u in native.units(gen, also=[HARNESS])
+        for u in native.units(gen, also=[HARNESS], c_sources=c_sources)
     ]
     objects = compile_units(todo, FUZZ_DIR / "obj", cc=cc, cxx=cxx)
     driver = cxx if any(u.cxx for u in todo) else cc
