@@ -111,7 +111,8 @@ static const ROM ROM_TABLE(int32_t, 129) recip_table = {{
     541098242, 538976288, 536870912,
 }};
 
-FX_INLINE int32_t reciprocal(int32_t s, uint8_t *st)
+/* 1 / s's seed (Q29): the table interpolated, within 1.6e-5. */
+FX_INLINE int32_t recip_seed(int32_t s)
 {
     uint32_t x = (uint32_t)s - ((uint32_t)1 << 29);
     uint16_t xh = (uint16_t)(x >> 16), xm = (uint16_t)(x >> 8); /* byte moves */
@@ -119,7 +120,12 @@ FX_INLINE int32_t reciprocal(int32_t s, uint8_t *st)
     uint16_t f = (uint16_t)(xm << 2);                           /* x's bits 21..6, Q16 */
     int32_t y0 = rom_i32(ROM_AT(recip_table, i));
     uint16_t d = (uint16_t)((uint32_t)(y0 - rom_i32(ROM_AT(recip_table, i + 1u))) >> 8);
-    int32_t y = y0 - (int32_t)(((uint32_t)d * f) >> 8);
+    return y0 - (int32_t)(((uint32_t)d * f) >> 8);
+}
+
+FX_INLINE int32_t reciprocal(int32_t s, uint8_t *st)
+{
+    int32_t y = recip_seed(s);
     int16_t e = (int16_t)(((int32_t)1 << 30) - fx_mul_shr(s, y, 29, st)); /* |e| < 2^15 */
     /* y e 2^-30 from y's top 16 bits (y < 2^30 + 1): within 2^-15 of |e|, below y's LSB */
     uint16_t y15 = (uint16_t)((uint16_t)((uint32_t)y >> 16) << 1 | (uint16_t)y >> 15);
@@ -127,12 +133,18 @@ FX_INLINE int32_t reciprocal(int32_t s, uint8_t *st)
     return y + (int16_t)((p << 1) >> 16); /* p >> 15 by a bit and two bytes */
 }
 
-/* m sin / m in Q30 for m > 0 (both Q16): m as m_n 2^(n - 16), m_n in [1/2, 1). */
+/* m sin / m in Q30 for m > 0 (both Q16): m as m_n 2^(n - 16), m_n in [1/2, 1). While the
+ * ratio is within ±1/2, the seed's 1.6e-5 moves asin by under 1e-5 rad (5e-4°; 2e-5° on a
+ * 1° road); past it, where asin's slope grows without bound, the full reciprocal. */
 static int32_t ratio_q30(int32_t m_sin, int32_t m, uint8_t *st)
 {
     uint8_t n = longit_bit_length((uint32_t)m);
-    int32_t r = reciprocal(scale(m, (int16_t)(30 - n)), st);
-    return mul_shr(m_sin, r, (int16_t)(n - 1), st);
+    int32_t m_n = scale(m, (int16_t)(30 - n));
+    int32_t r = mul_shr(m_sin, recip_seed(m_n), (int16_t)(n - 1), st);
+    if (r > (ONE_Q30 >> 1) || r < -(ONE_Q30 >> 1)) {
+        r = mul_shr(m_sin, reciprocal(m_n, st), (int16_t)(n - 1), st);
+    }
+    return r;
 }
 
 /* A positive value v 2^-q as P̃ (Q30, in [1/4, 1)) and an exponent e, v = P̃ 2^(2e); 0 stays
@@ -272,12 +284,13 @@ static uint8_t renormalise(int32_t *P, int8_t *e, uint8_t *st)
 {
     for (uint8_t i = 0; i < 3u; i++) {
         int32_t *d = &P[at[i][i]];
-        if (*d <= 0) {
-            return 0;
-        }
-        /* P̃_ii 4^k, e_i - k: up by k = (30 - its bit length) / 2 at once (exact, and a
-         * row that saturates saturates the same as step by step), or down by one. */
-        if (*d < (ONE_Q30 >> 2) || *d >= ONE_Q30) {
+        /* in [1/4, 1) (one unsigned compare), or P̃_ii 4^k, e_i - k: up by k = (30 - its
+         * bit length) / 2 at once (exact, and a row that saturates saturates the same as
+         * step by step), or down by one */
+        if ((uint32_t)*d - (uint32_t)(ONE_Q30 >> 2) >= (uint32_t)(ONE_Q30 - (ONE_Q30 >> 2))) {
+            if (*d <= 0) {
+                return 0;
+            }
             int8_t k =
                 *d >= ONE_Q30 ? -1 : (int8_t)((30u - longit_bit_length((uint32_t)*d)) / 2u);
             for (uint8_t j = 0; j < 3u; j++) {
@@ -311,23 +324,20 @@ __attribute__((noinline)) static void correct(rls_state_t *s, const int32_t *t, 
 {
     int32_t *theta = s->u.q.theta, *P = s->u.q.P;
     const int8_t *e = s->u.q.e;
-    /* θ += k err, k = 2^(e - top - g + gw) t, err as err_m 2^(n_err - ERR_Q), err_m in
-     * [1/2, 1) (Q30): one multiply, its shift from the exponents. */
-    if (err != 0) {
-        uint8_t n_err = longit_bit_length(magnitude(err));
-        int32_t err_m = scale(err, (int16_t)(30 - n_err));
-        for (uint8_t i = 0; i < 3u; i++) {
-            int16_t n = (int16_t)(57 - theta_q[i] - e[i] + k - n_err + ERR_Q);
-            theta[i] = fx_add(theta[i], mul_shr(t[i], err_m, n, st), st);
-        }
+    /* θ += 2^(e - k) t err (t Q27, err Q12): one product, rounded once at θ's Q. */
+    for (uint8_t i = 0; i < 3u; i++) {
+        int16_t n = (int16_t)(27 + ERR_Q - theta_q[i] - e[i] + k);
+        theta[i] = fx_add(theta[i], mul_shr(t[i], err, n, st), st);
     }
     /* P̃ - w̃ w̃ᵀ / s = P̃ - t ŵᵀ 2^(2 gw - g), whose entries are at most sqrt(P̃_ii P̃_jj) < 1. */
-    int32_t *p = P; /* the lower triangle row by row is P's packed order */
-    for (uint8_t i = 0; i < 3u; i++) {
-        for (uint8_t j = 0; j <= i; j++, p++) {
-            *p = fx_sub(*p, mul_shr(t[i], w[j], n_p, st), st);
-        }
-    }
+    /* written out in P's packed order (the lower triangle row by row): the AVR then reaches
+     * every operand at a constant offset */
+    P[0] = fx_sub(P[0], mul_shr(t[0], w[0], n_p, st), st);
+    P[1] = fx_sub(P[1], mul_shr(t[1], w[0], n_p, st), st);
+    P[2] = fx_sub(P[2], mul_shr(t[1], w[1], n_p, st), st);
+    P[3] = fx_sub(P[3], mul_shr(t[2], w[0], n_p, st), st);
+    P[4] = fx_sub(P[4], mul_shr(t[2], w[1], n_p, st), st);
+    P[5] = fx_sub(P[5], mul_shr(t[2], w[2], n_p, st), st);
 }
 
 /* Note §3's update with P as P̃ 2^(e_i + e_j) (rls.h): u = 2^e ψ as ũ 2^top (Q30, its
@@ -346,10 +356,13 @@ __attribute__((noinline)) static void update_q(rls_state_t *s, const int32_t *x,
     err = fx_sub(err, fx_mul_shr(u[1], theta[1], 18 + 20 - ERR_Q, &st), &st);
     err = fx_sub(err, fx_mul_shr(u[2], theta[2], 26 + 16 - ERR_Q, &st), &st);
 
-    int16_t top = INT16_MIN;
-    for (uint8_t j = 0; j < 3u; j++) { /* g' > 0: top is set */
-        int16_t b = (int16_t)(longit_bit_length(magnitude(u[j])) - psi_q[j] + e[j]);
-        top = u[j] != 0 && b > top ? b : top;
+    /* top: the largest bit length of |ψ_j| 2^e_j; g/cos ε (g in [9, 10.5]) has 30 in Q26 */
+    int16_t top = (int16_t)(30 - 26 + e[2]);
+    for (uint8_t j = 0; j < 2u; j++) {
+        if (u[j] != 0) {
+            int16_t b = (int16_t)(longit_bit_length(magnitude(u[j])) - psi_q[j] + e[j]);
+            top = b > top ? b : top;
+        }
     }
     for (uint8_t j = 0; j < 3u; j++) {
         u[j] = scale(u[j], (int16_t)(30 - psi_q[j] + e[j] - top)); /* |ψ_j| 2^e_j <= 2^top */
@@ -377,8 +390,7 @@ __attribute__((noinline)) static void update_q(rls_state_t *s, const int32_t *x,
     int16_t g = (int16_t)(-2 * top);
     int16_t gq = (int16_t)(longit_bit_length((uint32_t)q) - 27 + gw);
     g = (int16_t)((q != 0 && gq > g ? gq : g) + 1);
-    int32_t s_m = shift(s->u.q.l, (int16_t)(-2 * top - g), &st) +
-                  shift(q, (int16_t)(3 - g + gw), &st);
+    int32_t s_m = scale(s->u.q.l, (int16_t)(-2 * top - g)) + scale(q, (int16_t)(3 - g + gw));
     while (s_m < (ONE_Q30 >> 1)) { /* from [1/8, 1) into [1/2, 1) */
         s_m *= 2;
         g--;

@@ -457,13 +457,14 @@ void fx_small_cos_sin_q30(int32_t eps, int32_t *c, int32_t *s, uint8_t *status)
     *s = fx_mul(eps, 30, s3, 30, 30, status);
 }
 
-/* The series to x^11, for |x| <= 1/2, as x + x c with c = x² p(x²) <= 0.046: p's Q16
- * coefficients through 16 x 16 products (c within 2e-5, so the result within 1e-5 rad at
- * x = 1/2 and 2e-7 at 0.1), one 32 x 32 product for x² and a 32 x 16 one for x c. */
+/* The series to x^11, for |x| <= 1/2, as x + x c with c = x² p(x²) <= 0.046: x² and p's
+ * Q16 coefficients through 16 x 16 products (c within 2e-5, so the result within 1e-5 rad
+ * at x = 1/2 and 2e-7 at 0.1), and one 32 x 16 product for x c. */
 static int32_t asin_series_q30(int32_t x, uint8_t *status)
 {
     static const uint16_t c[] = {10923, 4915, 2926, 1991, 1466}; /* 1/6 ... 63/2816 */
-    uint16_t x2 = (uint16_t)fx_mul_shr(x, x, 44, status);     /* Q16, <= 2^14 */
+    int16_t h = (int16_t)((uint32_t)x << 1 >> 16);               /* x >> 15: Q15, <= 2^14 */
+    uint16_t x2 = (uint16_t)(((uint32_t)((int32_t)h * h) << 2) >> 16); /* Q16, within 2^-16 */
     uint16_t p = c[4];
     for (int8_t i = 3; i >= 0; i--) {
         p = (uint16_t)(c[i] + (uint16_t)(((uint32_t)p * x2) >> 16));
