@@ -197,6 +197,27 @@ def test_a_signed_operand_times_a_16_bit_factor_rounds_half_up(native_lib) -> No
                 assert mul(a, m, sh) == (a * m + (1 << (sh - 1))) >> sh, (a, m, sh)
 
 
+def test_a_16_bit_reciprocal_keeps_its_stated_error(native_lib) -> None:  # noqa: ANN001
+    """fx_recip16(b) = r 2^(n - 46) with r in [2^15, 2^16), within 5e-5 of 1/b for b over
+    the whole positive int32 range, the table's nodes and their neighbours included."""
+
+    class Recip16(ctypes.Structure):
+        _fields_ = (("r", ctypes.c_uint16), ("n", ctypes.c_uint8))
+
+    recip = native_lib.fx_recip16
+    recip.argtypes, recip.restype = [ctypes.c_int32], Recip16
+    rng = np.random.default_rng(46)
+    nodes = [(2**30 + k * 2**25) >> s for k in range(32) for s in (0, 7, 20)]
+    bs = [1, 2, 3, 2**31 - 1, 2**30, 2**30 - 1, 2**30 + 1] + nodes + [n + 1 for n in nodes]
+    bs += [int(b) for b in rng.integers(1, 2**31, 2000)]
+    worst = 0.0
+    for b in bs:
+        got = recip(b)
+        assert 2**15 <= got.r < 2**16, b
+        worst = max(worst, abs(got.r * 2.0 ** (got.n - 46) * b - 1.0))
+    assert worst < 5e-5
+
+
 def test_division_through_a_reciprocal_keeps_its_stated_error(native_lib) -> None:  # noqa: ANN001
     """fx_recip and fx_div_by (k = a / b as ACC's gains take it: Q28 / Q24 -> Q30) against
     exact quotients: relative error < 5e-7, or under one unit for small results; saturated

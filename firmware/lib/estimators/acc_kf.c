@@ -141,6 +141,23 @@ static int32_t lpf_q(const acc_kf_params_q_t *p, acc_kf_q_t *s, int32_t a_m, uin
     return a_f;
 }
 
+/* x 2^d for a quotient's numerator (d < 0: rounded half up, x's last -d bits dropped);
+ * past int32 it returns 0 and sets *over. */
+static int32_t numerator(int32_t x, int8_t d, uint8_t *over)
+{
+    if (d >= 0) {
+        uint8_t u = (uint8_t)d;
+        int32_t lim = u > 30u ? 0 : (int32_t)fx_shr32((uint32_t)FX_MAX, u);
+        if (x > lim || x < -lim - 1) {
+            *over = 1;
+            return 0;
+        }
+        return (int32_t)fx_shl32((uint32_t)x, u);
+    }
+    uint8_t k = (uint8_t)(-d - 1); /* (x + 2^k) >> (k + 1) as ((x >> k) + 1) >> 1 */
+    return k > 30u ? 0 : (fx_sar32(x, k) + 1) >> 1;
+}
+
 /* x (qa) / b (qb) -> q_out from b's reciprocal r: x r.y 2^(r.n - 60 + qb - qa + q_out), as
  * x shifted by d = r.n - 34 + qb - qa + q_out and one product with the constant shift 26
  * (~300 cycles with the product, where fx_div_by, which first normalises x, costs ~480).
@@ -148,28 +165,63 @@ static int32_t lpf_q(const acc_kf_params_q_t *p, acc_kf_q_t *s, int32_t a_m, uin
  * rounds half up and drops x's last -d bits (docs/estimators/acc_kf.md). */
 static int32_t quotient(int32_t x, fx_recip_t r, int8_t d, uint8_t *status)
 {
+    uint8_t over = 0;
+    int32_t xs = numerator(x, d, &over);
+    if (over) {
+        *status |= STATUS_SATURATED;
+        return x < 0 ? FX_MIN : FX_MAX;
+    }
+    return fx_mul_rs(xs, r.y, 26, status);
+}
+
+/* x 2^u r 2^-16 for |x| <= lim = INT32_MAX 2^-u, saturated (flagged) beyond. */
+static int32_t scaled_gain(int32_t x, uint8_t u, int32_t lim, uint16_t r, uint8_t *status)
+{
+    if (x > lim || x < -lim - 1) {
+        *status |= STATUS_SATURATED;
+        return x < 0 ? FX_MIN : FX_MAX;
+    }
+    return fx_smul_f((int32_t)fx_shl32((uint32_t)x, u), (fx_ufactor_t){r, 16});
+}
+
+/* The gains k1 = c M11 / S and k2 = c M12 / S (Q28 / Q24 -> Q30) from S's 16-bit
+ * reciprocal r 2^(n - 46): x 2^(n - 4) times r 2^-16 (fx_smul_f), the numerators' shift
+ * and its limit shared; saturated (flagged) past int32. */
+static void gains(int32_t cm11, int32_t cm12, fx_recip16_t r, int32_t *k1, int32_t *k2,
+                  uint8_t *status)
+{
+    int8_t d = (int8_t)(r.n - 4);
     if (d >= 0) {
         uint8_t u = (uint8_t)d;
         int32_t lim = u > 30u ? 0 : (int32_t)fx_shr32((uint32_t)FX_MAX, u);
-        if (x > lim || x < -lim - 1) {
-            *status |= STATUS_SATURATED;
-            return x < 0 ? FX_MIN : FX_MAX;
-        }
-        x = (int32_t)fx_shl32((uint32_t)x, u);
-    } else {
-        uint8_t k = (uint8_t)(-d - 1); /* (x + 2^k) >> (k + 1) as ((x >> k) + 1) >> 1 */
-        if (k > 30u) {
-            return 0;
-        }
-        if (k & 16u) {
-            x >>= 16;
-        }
-        if (k & 8u) {
-            x >>= 8;
-        }
-        x = ((x >> (k & 7u)) + 1) >> 1;
+        *k1 = scaled_gain(cm11, u, lim, r.r, status);
+        *k2 = scaled_gain(cm12, u, lim, r.r, status);
+    } else { /* S >= 2^26 in Q24: a right shift, nothing saturates */
+        uint8_t over = 0;
+        *k1 = fx_smul_f(numerator(cm11, d, &over), (fx_ufactor_t){r.r, 16});
+        *k2 = fx_smul_f(numerator(cm12, d, &over), (fx_ufactor_t){r.r, 16});
     }
-    return fx_mul_rs(x, r.y, 26, status);
+}
+
+/* R / S as a 16-bit factor (in (0, 1)): R's mantissa at CONFIG (R 2^-7 = m 2^-sh) times
+ * 1/S's, one 16 x 16 hardware product normalised to 16 bits. */
+static fx_ufactor_t recip_times_r(const acc_kf_params_q_t *p, fx_recip16_t inv_s)
+{
+    /* R = m 2^(7 - sh), 1 / S = r 2^(n - 46 + 24): R / S = prod 2^-(sh + 15 - n) */
+    uint32_t prod = fx_umul16x16(inv_s.r, p->R_f.m); /* in [2^30, 2^32) */
+    int16_t sh = (int16_t)(p->R_f.sh + 15 - inv_s.n);
+    uint16_t g;
+    if (prod & 0x80000000u) {
+        g = (uint16_t)(prod >> 16);
+        sh = (int16_t)(sh - 16);
+    } else {
+        g = (uint16_t)((prod << 1) >> 16);
+        sh = (int16_t)(sh - 15);
+    }
+    if (sh < 16) { /* R / S within 2^-15 of 1 */
+        return (fx_ufactor_t){0xffffu, 16};
+    }
+    return sh > 48 ? (fx_ufactor_t){0, 16} : (fx_ufactor_t){g, (uint8_t)sh};
 }
 
 /* The gains and the covariance update (eq. 8's C = [c, 0]), their flags kept in p_status.
@@ -191,34 +243,36 @@ static void covariance_q(const acc_kf_params_q_t *p, acc_kf_q_t *s, int32_t c, u
     int32_t m12 = fx_sub(s->p12, t_p22, &status);
     int32_t m22 = fx_add(s->p22, p->q_b, &status);
     int32_t cm11 = m11, cm12 = m12;
-    int32_t c2m11 = fx_rescale(m11, 28, 24, &status); /* Q24 */
+    int32_t c2m11 = ((m11 >> 3) + 1) >> 1; /* Q24, rounded half up (no overflow) */
     if (!unit_c) {
         cm11 = fx_mul(c, 30, m11, 28, 28, &status);
         cm12 = fx_mul(c, 30, m12, 28, 28, &status);
         c2m11 = fx_mul(c, 30, cm11, 28, 24, &status);
     }
     int32_t S = fx_add(c2m11, p->R, &status); /* Q24 */
-    int32_t k1 = 0, k2 = 0; /* no update if S is not positive (it is R > 0 or more) */
+    int32_t k1 = 0, k2 = 0, p11 = m11, p12 = m12, p22 = m22;
+    uint16_t g16 = 0x8000u; /* no update if S is not positive (it is R > 0 or more) */
     if (S > 0) {
-        fx_recip_t inv_s = fx_recip(S);
-        int8_t d = (int8_t)(inv_s.n - 8); /* Q28 / Q24 -> Q30 */
-        k1 = quotient(cm11, inv_s, d, &status); /* Q30 */
-        k2 = quotient(cm12, inv_s, d, &status); /* Q30, 1/s */
+        /* the gains and P to 16 bits of 1/S (relative error < 5e-5: a covariance's
+         * rounding, docs/estimators/acc_kf.md): P11 - k1 c M11 = M11 g and P12 - k1 c M12
+         * = M12 g with g = 1 - c k1 = R / S */
+        fx_recip16_t inv_s = fx_recip16(S);
+        gains(cm11, cm12, inv_s, &k1, &k2, &status); /* Q30; k2 in 1/s */
+        fx_ufactor_t g = recip_times_r(p, inv_s);
+        p11 = fx_smul_f(m11, g);
+        p12 = fx_smul_f(m12, g);
+        p22 = fx_sub(m22, fx_mul(k2, 30, cm12, 28, 30, &status), &status);
+        g16 = (uint16_t)fx_shr32(g.m, (uint8_t)(g.sh - 15u)); /* Q15 */
     } else {
         status |= STATUS_SINGULAR;
     }
-    int32_t p11 = fx_sub(m11, fx_mul(k1, 30, cm11, 28, 28, &status), &status);
-    int32_t p12 = fx_sub(m12, fx_mul(k1, 30, cm12, 28, 28, &status), &status);
-    int32_t p22 = fx_sub(m22, fx_mul(k2, 30, cm12, 28, 30, &status), &status);
     s->p_steady = unit_c && p11 == s->p11 && p12 == s->p12 && p22 == s->p22;
     s->p11 = p11;
     s->p12 = p12;
     s->p22 = p22;
     s->k1 = k1;
     s->k2 = k2;
-    /* 1 - c k1 = R / S in (0, 1], to Q15 for the health check */
-    int32_t g = fx_sub(ONE_Q30, unit_c ? k1 : fx_mul(c, 30, k1, 30, 30, &status), &status);
-    s->g16 = g <= 0 ? 0u : (uint16_t)(((uint32_t)g + (1u << 14)) >> 15);
+    s->g16 = g16;
     s->p_status = status;
 }
 
@@ -230,9 +284,11 @@ static uint8_t health_q(const acc_kf_params_q_t *p, acc_kf_q_t *s, int32_t e)
 {
     uint8_t hs = 0;
     int32_t e_r = p->e_shift ? (fx_sar32(e, (uint8_t)(p->e_shift - 1u)) + 1) >> 1 : e;
-    int16_t e16 = e_r > INT16_MAX ? INT16_MAX : e_r < -INT16_MAX ? -INT16_MAX : (int16_t)e_r;
-    __asm__("" : "+r"(e16)); /* one 16 x 16 hardware product, not a 32 x 32 (fx_mul16) */
-    uint32_t e2g = fx_umul16_q15((uint32_t)((int32_t)e16 * e16), s->g16); /* < 2^30 */
+    uint16_t e16 = (uint16_t)(e_r < 0 ? -e_r : e_r); /* |e|, 16 bits */
+    if (e_r > INT16_MAX || e_r < -INT16_MAX) {
+        e16 = INT16_MAX;
+    }
+    uint32_t e2g = fx_umul16_q15(fx_umul16x16(e16, e16), s->g16); /* < 2^30 */
     /* the average's step alpha (e2g - avg), on its magnitude */
     if (e2g >= s->nis_r) {
         s->nis_r += fx_umul_f(e2g - s->nis_r, p->alpha);
@@ -390,6 +446,7 @@ static uint8_t acc_kf_configure(void *state, uint8_t mode, const uint8_t *params
         p->q_v = fx_from_float(d.q_v, 28, &sat);
         p->q_b = fx_from_float(d.q_b, 30, &sat);
         p->R = param_q(params, P_R);
+        p->R_f = fx_ufactor((uint32_t)p->R, 31); /* R 2^-7 < 1 */
         p->p0_v = fx_rescale(param_q(params, P_P0V), 24, 28, &sat);
         p->p0_b = param_q(params, P_P0B);
         p->rbar = param_q(params, P_RBAR);

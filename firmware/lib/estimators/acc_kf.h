@@ -48,6 +48,7 @@ typedef struct {
     int32_t q_v;          /* Q28 */
     int32_t q_b;          /* Q30 */
     int32_t R;            /* Q24 */
+    fx_ufactor_t R_f;     /* R 2^-7 to 16 bits */
     int32_t p0_v;         /* Q28 */
     int32_t p0_b;         /* Q30 */
     int32_t rbar;         /* Q30 */

@@ -245,17 +245,39 @@ static int8_t normalize30(uint32_t *v)
     return n;
 }
 
-fx_recip_t fx_recip(int32_t b)
+/* 1/x for x (normalised, x 2^-31 in [1/2, 1)) from the table, interpolated: Q29, within
+ * 2e-3 of 1/x. */
+static int32_t recip_seed(uint32_t x)
 {
-    uint32_t x = (uint32_t)b; /* x 2^-31 in [1/2, 1) once normalised */
-    uint8_t n = (uint8_t)normalize30(&x); /* b <= INT32_MAX: a left shift */
     uint8_t k = (uint8_t)((uint8_t)(x >> 24) >> 1) & 31u; /* (x >> 25) by bytes */
     /* the next 16 bits, (x >> 9) by bytes and one 16-bit shift (GCC loops nine times) */
     uint16_t f = (uint16_t)((uint16_t)(x >> 8) >> 1 | (uint16_t)((uint8_t)(x >> 24) & 1u) << 15);
     uint16_t lo = rom_u16(ROM_AT(recip_table, k));
     uint16_t d = (uint16_t)(lo - rom_u16(ROM_AT(recip_table, k + 1u)));
-    __asm__("" : "+r"(d), "+r"(f)); /* one 16 x 16 hardware product, not a 32 x 32 call */
-    int32_t y = (int32_t)(((uint32_t)lo << 16 >> 1) - ((uint32_t)d * f >> 1)); /* Q29 */
+    return (int32_t)(((uint32_t)lo << 16 >> 1) - (fx_umul16x16(d, f) >> 1));
+}
+
+fx_recip16_t fx_recip16(int32_t b)
+{
+    uint32_t x = (uint32_t)b;
+    uint8_t n = (uint8_t)normalize30(&x);
+    int32_t y0 = recip_seed(x);
+    /* y0 and x to 16 bits (y0 <= 2^30: 2^30 itself, x = 2^30, would not fit) */
+    /* (y0 >> 14) as (y0 << 2) >> 16: the AVR shifts by whole bytes for free, else loops */
+    uint16_t y = (uint16_t)(((uint32_t)(y0 < (INT32_C(1) << 30) ? y0 : (INT32_C(1) << 30) - 1) << 2) >> 16);
+    uint16_t u = (uint16_t)((x << 1) >> 16); /* x 2^-15, floor */
+    /* one Newton step y (2 - u y): u y in Q31 is within 2e-3 of 1, so 2^31 - u y < 2^22 */
+    int16_t e = (int16_t)((int32_t)(UINT32_C(0x80000000) - fx_umul16x16(u, y)) >> 8);
+    /* (e y) >> 23 as ((e y) << 1) >> 24 (|e y| < 2^30) */
+    int32_t r = (int32_t)y + ((int32_t)((uint32_t)fx_smul16x16(e, y) << 1) >> 24);
+    return (fx_recip16_t){.r = r > 0xffff ? 0xffffu : (uint16_t)r, .n = n};
+}
+
+fx_recip_t fx_recip(int32_t b)
+{
+    uint32_t x = (uint32_t)b; /* x 2^-31 in [1/2, 1) once normalised */
+    uint8_t n = (uint8_t)normalize30(&x); /* b <= INT32_MAX: a left shift */
+    int32_t y = recip_seed(x); /* Q29 */
     uint8_t st = 0; /* nothing here can saturate: x y is within 1e-3 of 1 */
     int32_t t = fx_mul_rs((int32_t)x, y, 31, &st);            /* x y, Q29 */
     y = fx_mul_rs(y, ((int32_t)1 << 30) - t, 29, &st);       /* y (2 - x y) */
