@@ -95,47 +95,77 @@ def test_ctrl_c_stops_a_run_cleanly_and_keeps_what_was_recorded(tmp_path, built)
     assert (out / "report.md").exists()
 
 
-@pytest.mark.parametrize(
-    ("name", "board", "duration"),
-    [
-        ("mixed", "simavr", 30.0),
-        ("mixed-fixed", "simavr", 30.0),
-        ("hard-braking", "qemu", 6.0),
-        ("manf-hard-stop", "simavr", 4.0),
-        ("manf-hard-stop-fixed", "simavr", 4.0),
-        ("manf-abs-snow", "simavr", 6.0),
-        ("manf-wet-fast-fixed", "simavr", 8.0),  # unlike the shipped drives
-        ("anf-abs-snow-fixed", "simavr", 3.0),  # bit-exact with the native build
-        ("hard-braking-downhill-fixed", "simavr", 20.0),  # ACC: heavier car, 8 % down
-        ("uiiekf3-abs-dry", "simavr", 1.5),
-        ("uiiekf3-hifi-car", "simavr", 4.0),  # a car the filter does not know: DIVERGED from 3.2 s
-        ("mismatch-iso-c60-kfui", "simavr", 3.0),  # a quarter car the KF-UI does not know
-        ("mismatch-bumps30-eso-tuned-fixed", "simavr", 1.0),
-        ("s1-dlc80-ekf3-hifi", "simavr", 1.0),  # an EV the EKF does not know
-        ("paper-dither", "simavr", 15.0),
-        ("rls-flat-steps", "simavr", 20.0),
-        ("rls-flat-steps-fixed", "simavr", 20.0),  # bit-exact with the native build
-        ("rls-heavy-rolling-fixed", "simavr", 20.0),  # unlike the shipped drives
-        ("rls-truck-fixed", "qemu", 5.0),
-        ("paper-dither-fixed", "simavr", 15.0),  # bit-exact with the native build
-        ("paper-dither-fixed", "qemu", 2.0),
-        ("mass-step-fixed", "simavr", 45.0),  # past the +300 kg at 40 s
-        ("van-rolling-fixed", "simavr", 10.0),  # unlike the shipped drives
-        ("mass-step", "qemu", 3.0),
-        ("s1-sine-eso-fixed", "simavr", 5.0),
-        ("s5-iso-active-eso", "simavr", 5.0),  # closed loop: the board's force drives the car
-        ("s5-iso-active-eso-fixed", "qemu", 1.0),
-        ("s6-iso-active-kfui", "simavr", 3.0),
-        ("s1-dlc80-ekf3-linear", "simavr", 3.0),  # seed 001's variant that keeps 10 ms
-        ("s1-dlc80-ekf3-linear", "qemu", 1.0),
-        ("s1-dlc80-ekf", "simavr-ev", 0.3),  # seed 001's 7-state filters: not in the default image
-        ("s1-dlc80-ekf3", "simavr-ev", 0.3),
-        ("s5-dlc100-low-mu-ukf", "simavr-ev", 0.3),
-        ("s1-dlc80-ukf-hifi", "simavr-ev", 0.3),  # an EV the UKF does not know
-        ("s2-sine80-ekf", "qemu-ev", 0.3),
-        ("s6-sine100-low-mu-ukf", "qemu-ev", 1.0),
-    ],
-)
+# Every shipped scenario with a tolerance runs on the chip, found, not listed: a new one is
+# covered as it lands. Each runs its first DEFAULT_SAMPLES (configured, stepping, matching
+# its float64 reference from the start) on simavr, or on simavr-ev where its estimator is
+# not in the default image; one built to raise a flag (expect_flags) runs whole, to its
+# event. These run longer, the drive's point coming later (or a truth bound scored over
+# the whole drive):
+DEFAULT_SAMPLES = 50
+LONGER = {
+    "mixed": 30.0,
+    "mixed-fixed": 30.0,
+    "manf-hard-stop": 4.0,
+    "manf-hard-stop-fixed": 4.0,
+    "manf-abs-snow": 6.0,
+    "manf-wet-fast-fixed": 8.0,  # unlike the shipped drives
+    "anf-abs-snow-fixed": 3.0,  # bit-exact with the native build
+    "uiiekf3-abs-dry": 1.5,
+    "mismatch-iso-c60-kfui": 3.0,  # a quarter car the KF-UI does not know
+    "mismatch-bumps30-eso-tuned-fixed": 1.0,
+    "s1-dlc80-ekf3-hifi": 1.0,  # an EV the EKF does not know
+    "paper-dither": 15.0,
+    "rls-flat-steps": 20.0,
+    "rls-flat-steps-fixed": 20.0,  # bit-exact with the native build
+    "rls-heavy-fixed": 60.0,  # its truth bound is over the whole drive, from 1000 kg
+    "rls-heavy-rolling-fixed": 20.0,  # unlike the shipped drives
+    "paper-dither-fixed": 15.0,  # bit-exact with the native build
+    "mass-step-fixed": 45.0,  # past the +300 kg at 40 s
+    "van-rolling-fixed": 10.0,  # unlike the shipped drives
+    "s1-sine-eso-fixed": 5.0,
+    "s5-iso-active-eso": 5.0,  # closed loop: the board's force drives the car
+    "s6-iso-active-kfui": 3.0,
+    "s1-dlc80-ekf3-linear": 3.0,  # seed 001's variant that keeps 10 ms
+    "s3-tcs-low-mu-ekf": 1.0,  # its truth bound needs the first second
+}
+# and these on QEMU too (the -ev image where the estimator needs it)
+ON_QEMU = {
+    "hard-braking": 6.0,
+    "rls-truck-fixed": 5.0,
+    "paper-dither-fixed": 2.0,
+    "mass-step": 3.0,
+    "s5-iso-active-eso-fixed": 1.0,
+    "s1-dlc80-ekf3-linear": 1.0,
+    "s2-sine80-ekf": 0.3,
+    "s6-sine100-low-mu-ukf": 1.0,
+}
+
+
+def _discovered() -> list[tuple[str, str, float]]:
+    from vehil.build import registry
+    from vehil.build.platformio import default_estimators
+
+    in_default = set(registry.select(default_estimators()))
+    runs = []
+    for path in scenario.shipped():
+        sc = scenario.load(path)
+        if not sc.tolerances:  # a figure's drive (vehil reproduce), with nothing to check
+            continue
+        ev = "" if sc.estimator.name in in_default else "-ev"
+        whole = sc.duration if sc.expect_flags else DEFAULT_SAMPLES * sc.sample_time
+        runs.append((sc.name, f"simavr{ev}", min(sc.duration, LONGER.get(sc.name, whole))))
+        if sc.name in ON_QEMU:
+            runs.append((sc.name, f"qemu{ev}", ON_QEMU[sc.name]))
+    return runs
+
+
+def test_the_discovery_finds_every_scenario_the_tables_name() -> None:
+    names = {name for name, _, _ in _discovered()}
+    assert set(LONGER) | set(ON_QEMU) <= names  # a renamed scenario is not silently dropped
+    assert len(names) > 50
+
+
+@pytest.mark.parametrize(("name", "board", "duration"), _discovered())
 def test_estimators_on_the_chip_match_their_references(run_scenario, name, board, duration) -> None:  # noqa: ANN001, E501
     result = run_scenario(name, board=board, duration=duration)
     result.assert_passed()
