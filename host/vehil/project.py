@@ -71,7 +71,14 @@ def _folders(root: Path, where: str, value: Any) -> tuple[Path, ...]:
     missing = [v for v in value if not (root / v).is_dir()]
     if missing:
         raise ProjectError(f"{where}: project.c_sources: no folder {root / missing[0]}")
-    return tuple((root / v).resolve() for v in value)
+    folders = tuple((root / v).resolve() for v in value)
+    spaced = [f for f in folders if any(c.isspace() for c in str(f))]
+    if spaced:  # PlatformIO's options are lists split at white space
+        raise ProjectError(
+            f"{where}: project.c_sources: {spaced[0]} has white space in its path, which "
+            "the AVR build cannot take: move the project to a path without"
+        )
+    return folders
 
 
 def parse(path: Path) -> Project:

@@ -152,3 +152,10 @@ def test_vehil_new_refuses_what_it_cannot_write_and_says_why(tmp_path) -> None:
     assert not (root / "specs" / "smooth.py").exists()
     again = _vehil(tmp_path, "new", "project", "p")
     assert again.returncode == 2 and "vehil.toml exists already" in again.stdout
+
+
+def test_a_c_folder_with_white_space_in_its_path_is_refused_by_name(tmp_path) -> None:
+    root = _project(tmp_path / "p", '[project]\nc_sources = ["my c"]\n')
+    (root / "my c").mkdir()
+    with pytest.raises(project.ProjectError, match=r"my c has white space in its path"):
+        project.parse(root / "vehil.toml")
