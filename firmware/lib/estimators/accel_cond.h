@@ -39,7 +39,7 @@ typedef struct {
 } hp_delta_f32_t;
 
 typedef struct {
-    int32_t g, c2, c12; /* Q30: to 30 bits, their rounding noise (docs/estimators/eso.md) */
+    int32_t c2, c12; /* Q30: to 30 bits (docs/estimators/eso.md); g is the low-pass's */
 } hp_delta_q_t;
 
 typedef struct {
@@ -65,7 +65,7 @@ typedef struct {
 typedef struct {
     int32_t x1, x2;         /* Q16, the input as it came */
     int32_t l1, l2;         /* Q20 */
-    int32_t h1, h2, dh;     /* ACCEL_QH: the high-pass's output, its history and last step */
+    int32_t h1, h2, dh;     /* ACCEL_QH: the high-pass's output over g, its history, its step */
     int32_t v;              /* Q24 */
     int32_t x;              /* Q28 */
 } accel_chan_q_t;
