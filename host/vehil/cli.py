@@ -262,8 +262,13 @@ def cmd_new(args: argparse.Namespace) -> int:
     else:
         if not args.name:
             raise skeleton.SkeletonError("give the estimator's name: vehil new estimator NAME")
-        written = skeleton.new_estimator(args.name, args.title)
-        then = f"`vehil build`, then `vehil run {args.name}/sine-fixed --board simavr` or `pytest`"
+        written = (
+            skeleton.new_wrapper(args.name, Path(args.wrap), args.title)
+            if args.wrap
+            else skeleton.new_estimator(args.name, args.title)
+        )
+        mode = "f32" if args.wrap else "fixed"
+        then = f"`vehil build`, then `vehil run {args.name}/sine-{mode} --board simavr` or `pytest`"
     for path in written:
         console.print(f"[green]wrote[/] {path}")
     console.print(f"next: {then}")
@@ -850,6 +855,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("what", choices=("project", "estimator"))
     p.add_argument("name", nargs="?", help="project: its folder (default .); estimator: its name")
     p.add_argument("--title", help="estimator: a one-line title")
+    p.add_argument(
+        "--wrap",
+        metavar="HEADER",
+        help="estimator: wrap a library vendored in third_party/ (its header): manifest, "
+        "wrapper with the library's type in a size-checked slot",
+    )
     p.add_argument("--project-name", help="project: its name (default: the folder's)")
     p.set_defaults(func=cmd_new)
 

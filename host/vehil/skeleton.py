@@ -82,7 +82,7 @@ SPEC = register(
         outputs=(Signal("y", "1", q=24, doc="its low-passed estimate"),),
         params=(Param("k", "1", q=30, default=0.2, lo=0.0, hi=1.0, doc="gain per sample"),),
         reference=$cls,
-        modes=("F32", "FIXED"),
+        modes=$modes,
     )
 )
 '''
@@ -233,7 +233,7 @@ import pytest
 
 
 @pytest.mark.parametrize("board", ["native", "simavr", "qemu"])
-@pytest.mark.parametrize("mode", ["f32", "fixed"])
+@pytest.mark.parametrize("mode", $modes)
 def test_${name}_follows_its_reference(run_scenario, board: str, mode: str) -> None:
     run_scenario("$name/sine-" + mode, board=board).assert_passed()
 '''
@@ -270,8 +270,8 @@ def _free_id() -> int:
     return next(i for i in range(FIRST_USER_ID, 256) if i not in used)
 
 
-def new_estimator(name: str, title: str | None = None) -> list[Path]:
-    """Estimator `name` in the current project: spec, reference, C, scenarios, test."""
+def _start(name: str, title: str | None) -> tuple[project.Project, Path, dict[str, object]]:
+    """The current project, its scenarios folder and the templates' words for `name`."""
     here = project.current()
     if here is None:
         raise SkeletonError(
@@ -289,14 +289,31 @@ def new_estimator(name: str, title: str | None = None) -> list[Path]:
         raise SkeletonError(f"estimator name {name!r} is taken: pick another")
     if not here.c_sources:
         raise SkeletonError(f"{here.root / project.FILE_NAME}: give project.c_sources (a folder)")
-    scenarios = here.scenarios or here.root / "scenarios"
     words = {
         "name": name,
         "title": title or f"{name} (first-order low-pass)",
         "cls": "".join(w.capitalize() for w in name.split("_")) + "Reference",
         "guard": name.upper(),
         "c_id": _free_id(),
+        "modes": '("F32", "FIXED")',
     }
+    return here, here.scenarios or here.root / "scenarios", words
+
+
+def _write_checked(here: project.Project, files: dict[Path, str]) -> list[Path]:
+    written = _write(files)
+    found = project.parse(here.root / project.FILE_NAME)
+    if files and next(iter(files)) not in found.estimators:
+        raise SkeletonError(
+            f"wrote {written[0]}, which {here.root / project.FILE_NAME}'s project.estimators "
+            'does not match: add "specs/*.py" to it'
+        )
+    return written
+
+
+def new_estimator(name: str, title: str | None = None) -> list[Path]:
+    """Estimator `name` in the current project: spec, reference, C, scenarios, test."""
+    here, scenarios, words = _start(name, title)
     files = {
         here.root / "specs" / f"{name}.py": Template(SPEC).substitute(words),
         here.c_sources[0] / f"{name}.h": Template(HEADER).substitute(words),
@@ -307,13 +324,197 @@ def new_estimator(name: str, title: str | None = None) -> list[Path]:
             )
             for mode in ("F32", "FIXED")
         },
-        here.root / "tests" / f"test_{name}.py": Template(TEST).substitute(words),
+        here.root / "tests" / f"test_{name}.py": Template(TEST).substitute(
+            words, modes='["f32", "fixed"]'
+        ),
     }
-    written = _write(files)
-    found = project.parse(here.root / project.FILE_NAME)
-    if files and next(iter(files)) not in found.estimators:
+    return _write_checked(here, files)
+
+
+WRAP_HEADER = """\
+/* $name: $title. A wrapper around third_party/$lib ($header): the library's $type
+ * lives in an opaque slot, which only $source sees the type of (its header is included
+ * there alone: a header-only library may have no include guard). */
+#ifndef ${guard}_H
+#define ${guard}_H
+
+#include "estimators/estimator.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define ${guard}_ID ${c_id}u
+
+typedef struct {
+    VEHIL_SLOT(64) lib; /* $type: $source checks that it fits (raise 64 if it says so) */
+    float k, x;         /* the skeleton's low-pass: replace with the library's calls */
+    uint8_t started;
+} ${name}_state_t;
+
+extern const ROM estimator_t ${name}_estimator;
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif
+"""
+
+WRAP_SOURCE = """\
+#include "$name.h"
+
+#include <math.h>
+#include <string.h>
+
+#include "$include"
+#include "estimators/params.h"
+#include "proto/wire.h"
+
+VEHIL_SLOT_CHECK($type, ${name}_state_t, lib);
+
+#define N_PARAMS 1u
+
+/* The spec's parameters in its order: {lo, hi, q}, in flash. */
+static const ROM param_range_t ranges[N_PARAMS] = {{0.0f, 1.0f, 30}};
+
+static void ${name}_reset(void *state)
+{
+    ${name}_state_t *s = (${name}_state_t *)state;
+    /* Set the library's object up again here, from the parameters configure kept: for a C
+     * struct its init function on VEHIL_SLOT_AS($type, s->lib), for a C++ class `$type fresh(...);
+     * memcpy(s->lib.bytes_, &fresh, sizeof fresh);` (no placement new: avr-g++ has no
+     * <new>). Until then its slot is zeroed. */
+    memset(s->lib.bytes_, 0, sizeof s->lib);
+    s->started = 0u;
+    s->x = 0.0f;
+}
+
+static uint8_t ${name}_configure(void *state, uint8_t mode, const uint8_t *params)
+{
+    ${name}_state_t *s = (${name}_state_t *)state;
+    uint8_t bad = params_check(params, mode, ranges, N_PARAMS);
+    if (bad != 0u) {
+        return bad; /* 1 + the index of the first bad parameter: nothing kept */
+    }
+    s->k = param_value(params, 0, mode, param_range_q(ranges, 0));
+    ${name}_reset(s);
+    return 0;
+}
+
+static uint8_t ${name}_step(void *state, const uint8_t *in, uint8_t in_len, uint8_t *out,
+                        uint8_t *out_len)
+{
+    ${name}_state_t *s = (${name}_state_t *)state;
+    uint8_t status = 0;
+    float y = get_f32(in);
+    (void)in_len; /* the dispatcher checked it: n_inputs values */
+    if (!isfinite(y)) {
+        status |= STATUS_NOT_FINITE; /* contained: the estimate is held */
+    } else if (!s->started) {
+        s->x = y;
+        s->started = 1u;
+    } else {
+        s->x += s->k * (y - s->x); /* the skeleton's: VEHIL_SLOT_AS($type, s->lib)'s */
+    }
+    put_f32(out, s->x);
+    *out_len = ESTIMATOR_VALUE_SIZE;
+    return status;
+}
+
+/* Positional (C++ before C++20 has no designated initialisers): id, modes, n_inputs,
+ * n_outputs, n_params, configure, reset, step, name. */
+const ROM estimator_t ${name}_estimator = {
+    ${guard}_ID, 1u << MODE_F32, 1, 1, N_PARAMS, ${name}_configure, ${name}_reset, ${name}_step,
+    "$name",
+};
+"""
+
+WRAP_MANIFEST = """\
+# $lib as it came (docs/extending.md, "A library you did not write"): what vehil builds of
+# it. Written by `vehil new estimator --wrap`; check the sources and add its defines.
+[library]
+language = "$language"
+sources = $sources
+include_dirs = ["$include_dir"]
+defines = []
+"""
+
+_CLASS = re.compile(r"^\s*class\s+(\w+)[^;]*$", re.M)
+_TYPEDEF = re.compile(r"typedef\s+struct\s*\w*\s*\{.*?\}\s*(\w+)\s*;", re.S)
+
+
+def _library_of(here: project.Project, header: Path) -> Path:
+    from vehil.build import vendored
+
+    folder = here.root / vendored.FOLDER
+    try:
+        lib = folder / header.relative_to(folder).parts[0]
+    except ValueError:
         raise SkeletonError(
-            f"wrote {written[0]}, which {here.root / project.FILE_NAME}'s project.estimators "
-            'does not match: add "specs/*.py" to it'
+            f"{header} is not in {folder}: copy the library's folder there as it came, "
+            "then give its header"
+        ) from None
+    if not header.is_file():
+        raise SkeletonError(f"{header}: no such header")
+    return lib
+
+
+def new_wrapper(name: str, header: Path, title: str | None = None) -> list[Path]:
+    """Estimator `name` wrapping a vendored library: its manifest (if it has none), a C or
+    C++ wrapper with the library's type in an opaque, size-checked slot, the spec and its
+    float64 reference, a scenario and a test (float32: a library's own numbers)."""
+    from vehil.build import vendored
+
+    title = title or f"{name} (wraps {header.name})"
+    here, scenarios, words = _start(name, title)
+    header = header.resolve()
+    lib = _library_of(here, header)
+    text = header.read_text(errors="replace")
+    cxx = bool(_CLASS.search(text)) or any(header.parent.glob("*.cpp"))
+    found = (_CLASS if cxx else _TYPEDEF).search(text)
+    if found is None:
+        raise SkeletonError(
+            f"{header}: no {'class' if cxx else 'typedef struct'} found, so no type for the "
+            "wrapper's slot: give the header that declares the library's state"
         )
-    return written
+    files: dict[Path, str] = {}
+    manifest = lib / vendored.MANIFEST
+    if manifest.exists():
+        include_dir = next(
+            (d for d in vendored.parse(manifest).include_dirs if d in header.parents), None
+        )
+        if include_dir is None:
+            raise SkeletonError(f"{manifest}: no include_dirs entry holds {header}: add one")
+    else:
+        include_dir = header.parent
+        suffix = ".cpp" if cxx else ".c"
+        pattern = f"{header.parent.relative_to(lib).as_posix()}/*{suffix}".removeprefix("./")
+        has_sources = any(header.parent.glob(f"*{suffix}"))
+        files[manifest] = Template(WRAP_MANIFEST).substitute(
+            lib=lib.name,
+            language="c++" if cxx else "c",
+            sources=f'["{pattern}"]' if has_sources else "[]",
+            include_dir=include_dir.relative_to(lib).as_posix(),
+        )
+    source = here.c_sources[0] / f"{name}{'.cpp' if cxx else '.c'}"
+    wrap = {
+        **words,
+        "lib": lib.name,
+        "header": header.relative_to(lib).as_posix(),
+        "type": found.group(1),
+        "source": source.name,
+        "include": header.relative_to(include_dir).as_posix(),
+        "modes": '("F32",)',
+    }
+    files = {
+        here.root / "specs" / f"{name}.py": Template(SPEC).substitute(wrap),
+        here.c_sources[0] / f"{name}.h": Template(WRAP_HEADER).substitute(wrap),
+        source: Template(WRAP_SOURCE).substitute(wrap),
+        scenarios / name / "sine-f32.toml": Template(SCENARIO).substitute(
+            wrap, mode="F32", tolerance=TOLERANCES["F32"]
+        ),
+        here.root / "tests" / f"test_{name}.py": Template(TEST).substitute(wrap, modes='["f32"]'),
+        **files,
+    }
+    return _write_checked(here, files)

@@ -7,6 +7,7 @@ rounding of the float64 reference (the project's own check_boards.py)."""
 
 import fcntl
 import os
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -25,13 +26,15 @@ def _vehil(*argv: str) -> subprocess.CompletedProcess:
     return _vehil_python("-m", "vehil", *argv)
 
 
-def _vehil_python(*argv: str, timeout: float = 900) -> subprocess.CompletedProcess:
-    """Python in the project's folder, with the project's cache."""
+def _vehil_python(
+    *argv: str, cwd: Path = PROJECT, cache: Path = CACHE, timeout: float = 900
+) -> subprocess.CompletedProcess:
+    """Python in a project's folder, with a cache of its own."""
     env = {k: v for k, v in os.environ.items() if k != "VEHIL_PROJECT"}
-    env["VEHIL_CACHE"] = str(CACHE)
+    env["VEHIL_CACHE"] = str(cache)
     return subprocess.run(
         [sys.executable, *argv],
-        cwd=PROJECT,
+        cwd=cwd,
         env=env,
         capture_output=True,
         text=True,
@@ -77,3 +80,60 @@ def test_on_native_simavr_and_qemu_the_same_bits_within_float64(project_built) -
     )
     assert done.returncode == 0, done.stdout + done.stderr
     assert "2 passed" in done.stdout
+
+
+def test_a_wrapper_skeleton_builds_and_passes_as_written(tmp_path) -> None:  # noqa: ANN001
+    """`vehil new estimator NAME --wrap HEADER` for a C library with no manifest (one is
+    written) and for the C++ class (its manifest kept); the project built; the tests it
+    wrote pass on every board."""
+    project = tmp_path / "project"
+    shutil.copytree(PROJECT, project, ignore=shutil.ignore_patterns(".vehil", "__pycache__"))
+    toml = project / "vehil.toml"
+    toml.write_text(
+        "".join(line for line in toml.read_text().splitlines(True) if "image" not in line)
+    )
+    lib = project / "third_party" / "ringavg"
+    lib.mkdir()
+    (lib / "ringavg.h").write_text(
+        "typedef struct ringavg_s {\n    float sum;\n    int n;\n} ringavg_t;\n"
+        "void ringavg_init(ringavg_t *r);\n"
+    )
+    (lib / "ringavg.c").write_text(
+        '#include "ringavg.h"\nvoid ringavg_init(ringavg_t *r) { r->sum = 0; r->n = 0; }\n'
+    )
+
+    # kept between runs, as vehil's own objects are (the copy's are rebuilt: a new path)
+    cache = BUILD_DIR / "vendoring-skeleton"
+
+    def python(*argv: str) -> subprocess.CompletedProcess:
+        return _vehil_python(*argv, cwd=project, cache=cache)
+
+    def vehil(*argv: str) -> subprocess.CompletedProcess:
+        return python("-m", "vehil", *argv)
+
+    for name, header in (
+        ("ring_wrap", "third_party/ringavg/ringavg.h"),
+        ("obs_wrap", "third_party/SpeedObserver/src/SpeedObserver.h"),
+    ):
+        made = vehil("new", "estimator", name, "--wrap", header)
+        assert made.returncode == 0, made.stdout + made.stderr
+    manifest = (lib / "vehil-lib.toml").read_text()
+    assert 'language = "c"' in manifest and 'sources = ["*.c"]' in manifest
+    wrapper = (project / "c" / "obs_wrap.cpp").read_text()
+    assert "VEHIL_SLOT_CHECK(SpeedObserver, obs_wrap_state_t, lib);" in wrapper
+    built = vehil("build")
+    assert built.returncode == 0, built.stdout + built.stderr
+    tests = python(
+        "-m",
+        "pytest",
+        "-q",
+        "-p",
+        "no:cacheprovider",
+        "--confcutdir",
+        str(project),
+        "--rootdir",
+        str(project),
+        "tests",
+    )
+    assert tests.returncode == 0, tests.stdout + tests.stderr
+    assert "6 passed" in tests.stdout
