@@ -122,6 +122,7 @@ LONGER = {
     "paper-dither-fixed": 15.0,  # bit-exact with the native build
     "mass-step-fixed": 45.0,  # past the +300 kg at 40 s
     "van-rolling-fixed": 10.0,  # unlike the shipped drives
+    "well-excited-adaptive-fixed": 10.0,  # μ adapting
     "s1-sine-eso-fixed": 5.0,
     "s5-iso-active-eso": 5.0,  # closed loop: the board's force drives the car
     "s6-iso-active-kfui": 3.0,

@@ -8,14 +8,14 @@
 #include "linalg/chol_q15.h"
 #include "proto/wire.h"
 
-enum { P_CHI1, P_CHI2, P_A11, P_A12, P_A13, P_A22, P_A23, P_A33, P_MU, P_HELD, N_OWN };
+enum { P_CHI1, P_CHI2, P_A11, P_A12, P_A13, P_A22, P_A23, P_A33, P_MU, P_MU_MIN, P_HELD, N_OWN };
 #define N_PARAMS (N_OWN + LONGIT_N_PARAMS)
 #define CENTRE (STLQF_ROWS - 1u - STLQF_WL) /* row of the window centre */
 
 static const ROM param_range_t ranges[N_OWN] = {
     {0.0f, 10.0f, 24},     {0.0f, 10.0f, 24},     {-100.0f, 100.0f, 24},
     {-100.0f, 100.0f, 24}, {-100.0f, 100.0f, 24}, {-100.0f, 100.0f, 24}, {-100.0f, 100.0f, 24},
-    {-100.0f, 100.0f, 24}, {0.0f, 1.0f, 30},      {0.0f, 1.0f, 30},
+    {-100.0f, 100.0f, 24}, {0.0f, 1.0f, 30},      {0.0f, 1.0f, 30},      {0.0f, 1.0f, 30},
 };
 
 /* Where the window's row j (oldest first) is in the ring. */
@@ -23,6 +23,13 @@ static uint8_t slot(const stlqf_state_t *s, uint8_t j)
 {
     uint8_t i = (uint8_t)(s->head + j);
     return i >= STLQF_ROWS ? (uint8_t)(i - STLQF_ROWS) : i;
+}
+
+/* θ's entry of the solve's unknown i: the mass's value last (STLQF_LAST), so its
+ * Cholesky pivot is its information given the rest (docs/estimators/stlqf.md). */
+static uint8_t unknown(uint8_t i)
+{
+    return i == 0u ? 0u : i < STLQF_LAST ? (uint8_t)(i + 1u) : STLQF_MASS;
 }
 
 /* Time of row j from the window centre, in samples. */
@@ -93,7 +100,8 @@ static void configure_f32(stlqf_f32_t *f, const longit_t *model, const uint8_t *
     float T = model->T;
     f->c1 = get_f32(params + 4u * P_CHI1) / T;
     f->c2 = get_f32(params + 4u * P_CHI2) / (T * T);
-    f->mu = get_f32(params + 4u * P_MU);
+    f->mu_max = get_f32(params + 4u * P_MU);
+    f->mu_min = get_f32(params + 4u * P_MU_MIN);
     f->held_max = get_f32(params + 4u * P_HELD);
     /* g/cos ε is constant, so its filtered columns are exact: τ g' + χ1 g'/T and g'. */
     float col[2][STLQF_ROWS];
@@ -135,8 +143,15 @@ typedef char stlqf_rows_are_nine[STLQF_ROWS == 9u ? 1 : -1]; /* dot() is written
 static float dot(const float *a, const float *b)
 {
     /* Written out: the AVR spends a tenth of each multiply-add on a loop's upkeep. */
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3] + a[4] * b[4] + a[5] * b[5] +
-           a[6] * b[6] + a[7] * b[7] + a[8] * b[8];
+    float s = a[0] * b[0];
+    s = fmaf(a[1], b[1], s);
+    s = fmaf(a[2], b[2], s);
+    s = fmaf(a[3], b[3], s);
+    s = fmaf(a[4], b[4], s);
+    s = fmaf(a[5], b[5], s);
+    s = fmaf(a[6], b[6], s);
+    s = fmaf(a[7], b[7], s);
+    return fmaf(a[8], b[8], s);
 }
 
 static uint8_t solve_f32(stlqf_state_t *s, float *log_cond)
@@ -155,30 +170,31 @@ static uint8_t solve_f32(stlqf_state_t *s, float *log_cond)
     for (uint8_t c = 0; c < 5u; c++) {
         band_apply(f->band, phi[c], x[c]);
     }
-    const float *col[7] = {x[0], x[1], x[2], x[3], f->x_g[0], f->x_g[1], x[4]};
+    const float *col[6] = {x[0], x[1], x[2], x[3], f->x_g[0], f->x_g[1]}; /* θ's */
     float g[36], rhs[6];
-    for (uint8_t a = 0; a < 6u; a++) {
-        for (uint8_t b = 0; b <= a && b < 4u; b++) {
-            g[a * 6u + b] = dot(col[a], col[b]);
+    for (uint8_t i = 0; i < 6u; i++) {
+        uint8_t a = unknown(i);
+        for (uint8_t j = 0; j <= i; j++) {
+            uint8_t b = unknown(j);
+            /* g/cos ε's own entries are constant: (4, 4), (5, 4), (5, 5) */
+            g[i * 6u + j] = a >= 4u && b >= 4u ? f->g_gg[a + b - 8u] : dot(col[a], col[b]);
         }
-        rhs[a] = dot(col[a], col[6]);
+        rhs[i] = dot(col[a], x[4]);
     }
-    g[4 * 6 + 4] = f->g_gg[0];
-    g[5 * 6 + 4] = f->g_gg[1];
-    g[5 * 6 + 5] = f->g_gg[2];
     /* (D G D + μ I) y = D U + μ y_prior with D = diag(G)^-1/2 and θ = D y is, multiplied
      * out, (G + μ diag G) θ = U + μ diag(G) θ_prior: the Jacobi-scaled system without
      * the scaling (Cholesky's rounding does not depend on it), ~12 k cycles saved. */
     float scale[6];
-    for (uint8_t a = 0; a < 6u; a++) {
-        float gaa = g[a * 6u + a];
-        scale[a] = gaa > 0.0f ? gaa : 1.0f; /* a column of zeros (standing still) */
+    for (uint8_t i = 0; i < 6u; i++) {
+        uint8_t a = unknown(i);
+        float gii = g[i * 6u + i];
+        scale[i] = gii > 0.0f ? gii : 1.0f; /* a column of zeros (standing still) */
         /* The prior: a value where the last window's line puts it one sample later,
          * a slope zero. */
         float prior = (a & 1u) ? f->theta[a] + f->theta[a - 1u] : 0.0f;
-        float pull = f->mu * scale[a];
-        g[a * 6u + a] += pull;
-        rhs[a] += pull * prior;
+        float pull = f->mu * scale[i];
+        g[i * 6u + i] += pull;
+        rhs[i] += pull * prior;
     }
     float inv[6];
     if (!chol_solve_f32(g, rhs, 6, inv)) {
@@ -188,15 +204,26 @@ static uint8_t solve_f32(stlqf_state_t *s, float *log_cond)
     /* The condition estimate of the scaled matrix: its pivots are L_ii² / G_ii, compared
      * as their reciprocals (products of 1 / L_ii, no division each). */
     float lo = 0.0f, hi = 0.0f;
-    for (uint8_t a = 0; a < 6u; a++) {
-        float inv_pivot = inv[a] * inv[a] * scale[a];
-        lo = (a == 0u || inv_pivot < lo) ? inv_pivot : lo;
-        hi = (a == 0u || inv_pivot > hi) ? inv_pivot : hi;
-        f->theta[a] = rhs[a];
+    for (uint8_t i = 0; i < 6u; i++) {
+        float inv_pivot = inv[i] * inv[i] * scale[i];
+        lo = (i == 0u || inv_pivot < lo) ? inv_pivot : lo;
+        hi = (i == 0u || inv_pivot > hi) ? inv_pivot : hi;
+        f->theta[unknown(i)] = rhs[i];
     }
     *log_cond = log10f(hi / lo);
-    /* The prior's share of m̂ (docs/estimators/stlqf.md): μ G_mm [(G + μ diag G)⁻¹]_mm. */
-    float held = f->mu * scale[STLQF_MASS] * chol_inv_diag_f32(g, inv, 6, STLQF_MASS);
+    /* The mass's scaled pivot L² / G_mm is its information plus μ; the prior's share of
+     * m̂ is μ over it (docs/estimators/stlqf.md). */
+    float pivot = 1.0f / (inv[STLQF_LAST] * inv[STLQF_LAST] * scale[STLQF_LAST]);
+    float held = f->mu / pivot;
+    /* The next window's μ: mu_max (mu_max / ι)² within [mu_min, mu_max]. */
+    float info = pivot - f->mu;
+    if (f->mu_min < f->mu_max && info > f->mu_max) {
+        float ratio = f->mu_max / info;
+        float next = f->mu_max * ratio * ratio;
+        f->mu = next > f->mu_min ? next : f->mu_min;
+    } else {
+        f->mu = f->mu_max;
+    }
     return held > f->held_max ? STATUS_ILL_CONDITIONED : 0u;
 }
 
@@ -384,7 +411,8 @@ static uint8_t configure_q(stlqf_q_t *q, const uint8_t *params, const int32_t ba
     if (q->c2 >= ((int32_t)1 << 26)) {
         return 1u + P_CHI2; /* χ2/T² past 2^20: the filter's products would not fit */
     }
-    q->mu = param_q(params, P_MU);
+    q->mu_max = param_q(params, P_MU);
+    q->mu_min = param_q(params, P_MU_MIN);
     q->held_max = param_q(params, P_HELD);
     int16_t flat[STLQF_ROWS * 3];
     normalize(&band[0][0], flat, STLQF_ROWS * 3u, COL_LIMIT);
@@ -521,21 +549,21 @@ static uint8_t solve_q(stlqf_state_t *s, int32_t *log_cond)
     e_res = (int8_t)(e_res + weigh(q->band, col, x[4]));
     e[4] = q->e_g[0];
     e[5] = q->e_g[1];
-    const int16_t *xs[6] = {x[0], x[1], x[2], x[3], q->x_g[0], q->x_g[1]};
+    const int16_t *xs[6] = {x[0], x[1], x[2], x[3], q->x_g[0], q->x_g[1]}; /* θ's */
     int32_t g[36], rhs[6], scale[6];
-    for (uint8_t a = 0; a < 6u; a++) {
-        for (uint8_t b = 0; b <= a && b < 4u; b++) {
-            g[a * 6u + b] = dot_q(xs[a], xs[b]) >> 2; /* Gi / 2^32 in Q30: diagonal < 1/2 */
+    for (uint8_t i = 0; i < 6u; i++) {
+        uint8_t a = unknown(i);
+        for (uint8_t j = 0; j <= i; j++) {
+            uint8_t b = unknown(j);
+            /* Gi / 2^32 in Q30: diagonal < 1/2; g/cos ε's own entries are constant */
+            g[i * 6u + j] = (a >= 4u && b >= 4u ? q->g_gg[a + b - 8u] : dot_q(xs[a], xs[b])) >> 2;
         }
-        rhs[a] = dot_q(xs[a], x[4]) >> (32 - DELTA_Q);
+        rhs[i] = dot_q(xs[a], x[4]) >> (32 - DELTA_Q);
     }
-    g[4 * 6 + 4] = q->g_gg[0] >> 2;
-    g[5 * 6 + 4] = q->g_gg[1] >> 2;
-    g[5 * 6 + 5] = q->g_gg[2] >> 2;
-    for (uint8_t a = 0; a < 6u; a++) {
-        int32_t *gaa = &g[a * 6u + a];
-        scale[a] = *gaa > 0 ? *gaa : ((int32_t)1 << 28); /* a column of zeros: δ = 0 */
-        *gaa = fx_add(*gaa, fx_mul_shr(q->mu, scale[a], 30, &st), &st); /* μ <= 1: < 1 */
+    for (uint8_t i = 0; i < 6u; i++) {
+        int32_t *gii = &g[i * 6u + i];
+        scale[i] = *gii > 0 ? *gii : ((int32_t)1 << 28); /* a column of zeros: δ = 0 */
+        *gii = fx_add(*gii, fx_mul_shr(q->mu, scale[i], 30, &st), &st); /* μ <= 1: < 1 */
     }
     int16_t l[36];
     int32_t inv[6];
@@ -543,21 +571,33 @@ static uint8_t solve_q(stlqf_state_t *s, int32_t *log_cond)
         *log_cond = INT32_MAX;
         return (uint8_t)(st | STATUS_SINGULAR);
     }
-    /* The condition estimate of the Jacobi-scaled matrix: its pivots are L_aa² / G_aa. */
+    /* The condition estimate of the Jacobi-scaled matrix: its pivots are L_ii² / G_ii. */
     int32_t lo = 0, hi = 0;
-    for (uint8_t a = 0; a < 6u; a++) {
-        int32_t pivot = 2 * fx_log2_q24(l[a * 7u], 15) - fx_log2_q24(scale[a], 30);
-        lo = (a == 0u || pivot < lo) ? pivot : lo;
-        hi = (a == 0u || pivot > hi) ? pivot : hi;
-        int32_t step = scale_pow2(rhs[a], (int16_t)(e_res - e[a] + THETA_Q - DELTA_Q), &st);
+    for (uint8_t i = 0; i < 6u; i++) {
+        uint8_t a = unknown(i);
+        int32_t pivot = 2 * fx_log2_q24(l[i * 7u], 15) - fx_log2_q24(scale[i], 30);
+        lo = (i == 0u || pivot < lo) ? pivot : lo;
+        hi = (i == 0u || pivot > hi) ? pivot : hi;
+        int32_t step = scale_pow2(rhs[i], (int16_t)(e_res - e[a] + THETA_Q - DELTA_Q), &st);
         q->theta[a] = fx_add(prior[a], step, &st);
     }
     *log_cond = fx_mul_shr(hi - lo, 323228497 /* log10 2, Q30 */, 30, &st);
-    /* The prior's share of m̂ (docs/estimators/stlqf.md), at most 1: μ G_mm [g⁻¹]_mm. A
-     * rounding that saturates it says "all prior", not a saturated estimate. */
+    /* The prior's share of m̂ (docs/estimators/stlqf.md), at most 1: μ G_mm / L_mm², the
+     * mass last. A rounding that saturates it says "all prior", not a saturated estimate. */
     uint8_t held_st = 0;
-    int32_t held = chol_inv_diag_q15(l, inv, 6, STLQF_MASS,
-                                     fx_mul_shr(q->mu, scale[STLQF_MASS], 30, &held_st), &held_st);
+    int32_t pull = fx_mul_shr(q->mu, scale[STLQF_LAST], 30, &held_st); /* μ G_mm, Q30 */
+    int32_t held = chol_inv_diag_q15(l, inv, 6, STLQF_LAST, pull, &held_st);
+    /* The next window's μ: mu_max (mu_max / ι)² within [mu_min, mu_max], ι G_mm = L_mm²
+     * - μ G_mm (Q30), so mu_max / ι = mu_max G_mm / (L_mm² - μ G_mm). */
+    uint8_t mu_st = 0; /* top < info < 1: nothing saturates */
+    int32_t top = fx_mul_shr(q->mu_max, scale[STLQF_LAST], 30, &mu_st);
+    int32_t info = (int32_t)l[STLQF_LAST * 7u] * l[STLQF_LAST * 7u] - pull; /* Q30 */
+    int32_t next = q->mu_max;
+    if (q->mu_min < q->mu_max && info > top) {
+        int32_t ratio = fx_div(top, 30, info, 30, 30, &mu_st); /* < 1 */
+        next = fx_mul_shr(q->mu_max, fx_mul_shr(ratio, ratio, 30, &mu_st), 30, &mu_st);
+    }
+    q->mu = next > q->mu_min ? next : q->mu_min;
     return (uint8_t)(st | (held > q->held_max || held_st ? STATUS_ILL_CONDITIONED : 0u));
 }
 
@@ -573,10 +613,12 @@ static void stlqf_reset(void *state)
             s->u.f32.theta[2u * l] = 0.0f;
             s->u.f32.theta[2u * l + 1u] = theta0[l];
         }
+        s->u.f32.mu = s->u.f32.mu_max;
     } else {
         const longit_q_t *l = &s->u.q.shared;
         uint8_t st = 0;
         memset(s->u.q.theta, 0, sizeof s->u.q.theta);
+        s->u.q.mu = s->u.q.mu_max;
         s->u.q.theta[1] = l->m0;
         s->u.q.theta[3] = fx_rescale(l->cda0, 24, 16, &st);
         s->u.q.theta[5] = fx_mul(l->m0, 16, l->sin_eps, 30, 16, &st);
@@ -591,6 +633,10 @@ static uint8_t stlqf_configure(void *state, uint8_t mode, const uint8_t *params)
     uint8_t bad = longit_check(params, mode, ranges, N_OWN);
     if (bad != 0u) {
         return bad;
+    }
+    if (mode == MODE_F32 ? get_f32(params + 4u * P_MU_MIN) > get_f32(params + 4u * P_MU)
+                         : param_q(params, P_MU_MIN) > param_q(params, P_MU)) {
+        return 1u + P_MU_MIN; /* μ adapts between mu_min and mu */
     }
     int32_t a_q[6]; /* a11 a12 a13 a22 a23 a33, Q24 */
     for (uint8_t i = 0; i < 6u; i++) {

@@ -4,7 +4,8 @@
  * G = Σ_k W_kᵀ A W_k is formed as Xᵀ X, X = R Φ̃, R the banded factor of the weight A
  * spreads over the nine filtered rows; the system is Jacobi-scaled and solved by
  * Cholesky with μ pulling each value towards the previous window's and each slope
- * towards zero (host: estimators/stlqf.py).
+ * towards zero; μ adapts between mu_min and mu to the mass's information in the last
+ * window (host: estimators/stlqf.py).
  *
  * FIXED computes each filtered row exactly in int64 and keeps it as int32 mantissas
  * with an exponent per input (block floating point), and solves for the step from
@@ -16,7 +17,7 @@
  *
  * Inputs  v [m/s] Q24, v̇ [m/s²] Q24, z [N] Q14.  Outputs m̂ [kg] Q16, Ĉ_dA_f [m²] Q16,
  * β̂_r [deg] Q20, log10 cond Q24.  Params  χ1, χ2, a11 a12 a13 a22 a23 a33, μ,
- * held_max, then longit's (ε, ρ, g, m0, C_dA_f0, T, prefilter Hz).
+ * μ_min, held_max, then longit's (ε, ρ, g, m0, C_dA_f0, T, prefilter Hz).
  * ILL_CONDITIONED: the prior's share of m̂, μ G_mm [(G + μ diag G)⁻¹]_mm, is above
  * held_max (the window's data do not determine the mass). */
 #ifndef VEHIL_ESTIMATORS_STLQF_H
@@ -32,10 +33,11 @@
 #define STLQF_ROWS (2u * STLQF_WL - 1u) /* filtered rows per window: φ̃[k] needs φ[k-2] */
 #define STLQF_COLS 5u /* per row: ψ̃ and the time column's e for v̇ and ½ρv², then ζ */
 #define STLQF_MASS 1u /* θ's entry of the mass at the window centre */
+#define STLQF_LAST 5u /* the mass's unknown in the solve: last, so its pivot is its information */
 
 typedef struct {
     float c1, c2; /* χ1/T, χ2/T² */
-    float mu, held_max;
+    float mu, mu_max, mu_min, held_max; /* μ: this window's, between mu_min and mu_max */
     float band[STLQF_ROWS][3]; /* R(i, i + d) */
     float x_g[2][STLQF_ROWS];  /* X's columns of g/cos ε (constant: its filters are exact) */
     float g_gg[3];             /* their Gram entries */
@@ -44,7 +46,7 @@ typedef struct {
 
 typedef struct {
     int32_t c1, c2;             /* χ1/T Q16, χ2/T² Q6 */
-    int32_t mu, held_max;       /* Q30 */
+    int32_t mu, mu_max, mu_min, held_max; /* Q30 */
     int16_t band[STLQF_ROWS][3]; /* R scaled to |R_ij| < 2^14 */
     int16_t x_g[2][STLQF_ROWS];  /* X's g/cos ε columns */
     int8_t e_g[2];               /* their exponents */

@@ -96,6 +96,13 @@ def chi2_fits(p: Mapping[str, float], mode: str) -> str | None:
     return None
 
 
+def mu_min_below_mu(p: Mapping[str, float], mode: str) -> str | None:
+    """mu_min <= mu."""
+    if p["mu_min"] > p["mu"]:
+        return "mu_min must not exceed mu (the weight adapts between them)"
+    return None
+
+
 STLQF_PARAMS = (
     Param("chi1", "s", q=24, default=1.0, lo=0.0, hi=10.0, doc="χ1 (eq. 14)"),
     Param("chi2", "s^2", q=24, default=1.0, lo=0.0, hi=10.0, doc="χ2 (eq. 14)"),
@@ -103,7 +110,24 @@ STLQF_PARAMS = (
         Param(f"a{ij}", "1", q=24, default=v, lo=-100.0, hi=100.0, doc="Table 3 weight")
         for ij, v in (("11", 5.0), ("12", 3.0), ("13", 2.0), ("22", 5.0), ("23", 3.0), ("33", 5.0))
     ),
-    Param("mu", "1", q=30, default=1e-2, lo=0.0, hi=1.0, doc="Tikhonov weight (scaled)"),
+    Param(
+        "mu",
+        "1",
+        q=30,
+        default=1e-2,
+        lo=0.0,
+        hi=1.0,
+        doc="Tikhonov weight (scaled) where the window's data do not fix the mass",
+    ),
+    Param(
+        "mu_min",
+        "1",
+        q=30,
+        default=1e-2,
+        lo=0.0,
+        hi=1.0,
+        doc="Tikhonov weight (scaled) where they do (mu: no adaptation)",
+    ),
     Param(
         "held_max",
         "1",
@@ -216,16 +240,25 @@ def cholesky_solve(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, float, np.
 
 
 MASS = 1  # θ's entry of the mass at the window centre
+# The system's unknowns, θ's entries in solve order: the mass last, so its Cholesky pivot
+# is its information given the rest and [(S + μ I)⁻¹]_mm = 1 / L_mm².
+ORDER = (0, 2, 3, 4, 5, MASS)
 
 
-def prior_share(low: np.ndarray, mu: float, a: int = MASS) -> float:
-    """μ [(S + μ I)⁻¹]_aa from L L^T = S + μ I: the share of entry a that the prior
-    holds (the diagonal of I minus the resolution matrix), in [0, 1]; ‖L⁻¹ e_a‖² by a
-    forward substitution from row a, as the board does."""
-    w = np.zeros(len(low))
-    for i in range(a, len(low)):
-        w[i] = ((1.0 if i == a else 0.0) - low[i, a:i] @ w[a:i]) / low[i, i]
-    return float(mu * w @ w)
+def prior_share(low: np.ndarray, mu: float) -> float:
+    """μ [(S + μ I)⁻¹]_mm = μ / L_mm² from L L^T = S + μ I (the mass last): the share of
+    m̂ that the prior holds (the diagonal of I minus the resolution matrix), in [0, 1]."""
+    return float(mu / low[-1, -1] ** 2)
+
+
+def next_mu(pivot: float, mu: float, p: Mapping[str, float]) -> float:
+    """The next window's μ from this one's (docs/estimators/stlqf.md): the mass's
+    information given the rest, ι = L_mm² - μ (the scaled system's last pivot less the
+    pull), sets μ' = mu (mu / ι)², within [mu_min, mu]: the full hold where ι <= mu (the
+    prior would take half of m̂ or more), falling fast as the data take over."""
+    info, top = pivot - mu, p["mu"]
+    ratio = min(top / info, 1.0) if info > 0.0 else 1.0
+    return max(top * ratio * ratio, p["mu_min"])
 
 
 class Stlqf:
@@ -241,6 +274,7 @@ class Stlqf:
         self.exact_cond: list[float] = []
         self.flags = 0
         self.held = 1.0  # the prior's share of m̂ in the last window
+        self.mu = p["mu"]  # this window's: held until the data show they fix the mass
 
     def _filtered(self, x: np.ndarray, x1: np.ndarray, x2: np.ndarray) -> np.ndarray:
         """x + χ1 Δx/T + χ2 Δ²x/T² (α x + β x₋₁ + γ x₋₂ as differences)."""
@@ -283,8 +317,9 @@ class Stlqf:
             # each slope zero (a random walk: a slope the data do not carry decays).
             prior = np.zeros(6)
             prior[1::2] = self.theta[1::2] + self.theta[0::2]
-            mu = p["mu"]
-            solved = cholesky_solve(scaled + mu * np.eye(6), d * rhs + mu * prior / d)
+            mu, order = self.mu, list(ORDER)
+            system = (scaled + mu * np.eye(6))[np.ix_(order, order)]
+            solved = cholesky_solve(system, (d * rhs + mu * prior / d)[order])
             if solved is None:
                 self.flags |= SINGULAR
                 log_cond = math.inf
@@ -294,7 +329,8 @@ class Stlqf:
                 self.held = prior_share(low, mu)
                 if self.held > p["held_max"]:
                     self.flags |= ILL_CONDITIONED
-                self.theta = d * y
+                self.theta[order] = d[order] * y
+                self.mu = next_mu(float(low[-1, -1] ** 2), mu, p)
         theta = self.theta[1::2]
         return np.array([theta[0], theta[1], grade_deg(theta, p), log_cond])
 
@@ -335,7 +371,7 @@ STLQF = register(
         outputs=(*OUTPUTS, Signal("log_cond", "1", q=24, doc="log10 condition estimate")),
         reference=Stlqf,
         params=STLQF_PARAMS,
-        rules=(a_positive_definite, chi2_fits, no_fixed_prefilter),
+        rules=(a_positive_definite, chi2_fits, no_fixed_prefilter, mu_min_below_mu),
         modes=("F32", "FIXED"),
         paper="002-stlqf-hil-mega2560",
         delay=WL,
