@@ -110,24 +110,8 @@ STLQF_PARAMS = (
         Param(f"a{ij}", "1", q=24, default=v, lo=-100.0, hi=100.0, doc="Table 3 weight")
         for ij, v in (("11", 5.0), ("12", 3.0), ("13", 2.0), ("22", 5.0), ("23", 3.0), ("33", 5.0))
     ),
-    Param(
-        "mu",
-        "1",
-        q=30,
-        default=1e-2,
-        lo=0.0,
-        hi=1.0,
-        doc="Tikhonov weight (scaled) where the window's data do not fix the mass",
-    ),
-    Param(
-        "mu_min",
-        "1",
-        q=30,
-        default=1e-2,
-        lo=0.0,
-        hi=1.0,
-        doc="Tikhonov weight (scaled) where they do (mu: no adaptation)",
-    ),
+    Param("mu", "1", q=30, default=1e-2, lo=0.0, hi=1.0, doc="Tikhonov weight (scaled): the hold"),
+    Param("mu_min", "1", q=30, default=1e-2, lo=0.0, hi=1.0, doc="μ's floor, where data fix m"),
     Param(
         "held_max",
         "1",
