@@ -42,6 +42,28 @@ def _vehil_python(
     )
 
 
+def _project_pytest(
+    target: str, project: Path = PROJECT, cache: Path = CACHE
+) -> subprocess.CompletedProcess:
+    """pytest in a project's folder, as its CI would run it: vehil's plugin, none of
+    vehil's own conftest files."""
+    where = str(project)
+    return _vehil_python(
+        "-m",
+        "pytest",
+        "-q",
+        "-p",
+        "no:cacheprovider",
+        "--confcutdir",
+        where,
+        "--rootdir",
+        where,
+        target,
+        cwd=project,
+        cache=cache,
+    )
+
+
 @pytest.fixture(scope="module")
 def project_built() -> subprocess.CompletedProcess:
     """`vehil build` in the project, one worker at a time (they share its cache)."""
@@ -66,18 +88,7 @@ def test_the_image_holds_the_two_wrappers_and_no_example_of_the_libraries(projec
 def test_on_native_simavr_and_qemu_the_same_bits_within_float64(project_built) -> None:  # noqa: ANN001
     """The project's own check (check_boards.py), run as its CI would: pytest in its
     folder, vehil's pytest plugin running the scenarios on each board."""
-    done = _vehil_python(
-        "-m",
-        "pytest",
-        "-q",
-        "-p",
-        "no:cacheprovider",
-        "--confcutdir",
-        str(PROJECT),
-        "--rootdir",
-        str(PROJECT),
-        "check_boards.py",
-    )
+    done = _project_pytest("check_boards.py")
     assert done.returncode == 0, done.stdout + done.stderr
     assert "2 passed" in done.stdout
 
@@ -105,11 +116,8 @@ def test_a_wrapper_skeleton_builds_and_passes_as_written(tmp_path) -> None:  # n
     # kept between runs, as vehil's own objects are (the copy's are rebuilt: a new path)
     cache = BUILD_DIR / "vendoring-skeleton"
 
-    def python(*argv: str) -> subprocess.CompletedProcess:
-        return _vehil_python(*argv, cwd=project, cache=cache)
-
     def vehil(*argv: str) -> subprocess.CompletedProcess:
-        return python("-m", "vehil", *argv)
+        return _vehil_python("-m", "vehil", *argv, cwd=project, cache=cache)
 
     for name, header in (
         ("ring_wrap", "third_party/ringavg/ringavg.h"),
@@ -123,17 +131,6 @@ def test_a_wrapper_skeleton_builds_and_passes_as_written(tmp_path) -> None:  # n
     assert "VEHIL_SLOT_CHECK(SpeedObserver, obs_wrap_state_t, lib);" in wrapper
     built = vehil("build")
     assert built.returncode == 0, built.stdout + built.stderr
-    tests = python(
-        "-m",
-        "pytest",
-        "-q",
-        "-p",
-        "no:cacheprovider",
-        "--confcutdir",
-        str(project),
-        "--rootdir",
-        str(project),
-        "tests",
-    )
+    tests = _project_pytest("tests", project, cache)
     assert tests.returncode == 0, tests.stdout + tests.stderr
     assert "6 passed" in tests.stdout
