@@ -58,3 +58,48 @@ def test_an_object_is_rebuilt_when_a_header_it_includes_changes_anywhere(tmp_pat
     time.sleep(0.01)
     (lib / "gain.h").write_text("#define GAIN 3\n")
     assert build() > first
+
+
+ARDUINO_CLASS = """
+#include <Arduino.h>
+class Smoother {
+public:
+    explicit Smoother(float k) : k_(k), x_(0) {}
+    float update(float u)
+    {
+        x_ += k_ * (constrain(u, -10.0f, 10.0f) - x_);
+        byte b = lowByte(300);
+        return x_ + abs(u) * PI + min(u, 1.0f) + max(u, 0.0f) + radians(u) + degrees(u) +
+               sq(u) + (float)round(u) + (float)map(b, 0, 255, 0, 100) + (float)bit(2) + CALL;
+    }
+private:
+    float k_, x_;
+};
+float use(float u) { Smoother s(0.5f); return s.update(u); }
+"""
+
+
+@pytest.mark.parametrize(
+    "compiler",
+    [os.environ.get("CXX", "c++"), "avr-g++ -mmcu=atmega2560"],
+)
+def test_an_arduino_class_builds_for_the_host_and_the_chip_but_not_with_a_clock(
+    tmp_path, compiler: str
+) -> None:  # noqa: ANN001
+    from vehil.build.native import cxx_flags
+
+    source = tmp_path / "smoother.cpp"
+
+    def build(call: str) -> subprocess.CompletedProcess:
+        source.write_text(ARDUINO_CLASS.replace("CALL", call))
+        flags = cxx_flags()
+        if compiler.startswith("avr"):  # avr-libc's maths is in double: the twin checks are native
+            flags = [f for f in flags if "float" not in f and "double" not in f]
+        cmd = [*compiler.split(), *flags, *vendored.include_flags([]), "-c", str(source)]
+        return subprocess.run([*cmd, "-o", str(tmp_path / "s.o")], capture_output=True, text=True)
+
+    built = build("0.0f")
+    assert built.returncode == 0, built.stderr  # gnu++11, no exceptions or RTTI, -Werror
+    clocked = build("(float)millis()")
+    assert clocked.returncode != 0
+    assert "an estimator has no clock" in clocked.stderr
