@@ -405,8 +405,8 @@ fx_factor_t fx_factor(float x, int8_t e, uint8_t *status);
 float fx_factor_value(fx_factor_t f);
 
 /* a f rounded to nearest, ties away from zero, saturated to int32 (flagged). On the AVR an
- * assembly kernel (fx_mul_f_avr.S: eight hardware products, the shift by bytes then at most
- * seven bits, ~95-115 cycles); the C twin gives the same bits on the host. */
+ * assembly kernel (fx_mul_f_avr.S: eight hardware products, then a jump to an entry written
+ * for f's shift, ~104 cycles); the C twin gives the same bits on the host. */
 int32_t fx_mul_f_c(int32_t a, uint16_t m, uint8_t sh, uint8_t *status);
 #if defined(__AVR__)
 int32_t fx_mul_f_avr(int32_t a, uint16_t m, uint8_t sh, uint8_t *status);

@@ -1,15 +1,122 @@
 ; fx_mul_f for the AVR build: a · (±m 2^-sh) for an int32 a and a constant factor kept as a
 ; 16-bit mantissa m and a shift 9 <= sh <= 47 (the factor's sign in sh's bit 7: fixmath.h's
 ; fx_factor_t), rounded to nearest with ties away from zero and saturated to int32 (flagged).
-; |a| times m by the eight hardware products of its four bytes by m's two, then the shift:
-; whole bytes by register moves, the rest bit by bit (at most seven), the last bit out
-; rounding; then the sign. The C twin fx_mul_f_c in fixmath.c gives the same bits.
+; |a| times m by the eight hardware products of its four bytes by m's two; then a jump
+; through a flash table (as fx_mul_shr_n) to an entry written for that shift, whose rounding
+; add and shift are unrolled: a byte choice and at most seven bit shifts, no loop; then the
+; sign. The C twin fx_mul_f_c in fixmath.c gives the same bits.
 ;
 ; avr-gcc's interface: a in r25:r22, m in r21:r20, sh in r18, status pointer in r17:r16;
 ; result in r25:r22. Clobbers r0, r18-r27, r30, r31 (call-used); r1 is left 0. No skip over
 ; a RET (QEMU 7.2 runs one wrong: see firmware/src/mulhisi3.S).
 
 #define SATURATED 0x01          /* STATUS_SATURATED, proto/messages.h */
+
+; Q = P >> 8 (P = |a| m < 2^47) lives in five registers, byte i of Q in QREG(i):
+; r19, r26, r27, r20, r21. r18 is zero.
+.macro QR out, i
+        .if     \i == 0
+        .set    \out, 19
+        .elseif \i == 1
+        .set    \out, 26
+        .elseif \i == 2
+        .set    \out, 27
+        .elseif \i == 3
+        .set    \out, 20
+        .else
+        .set    \out, 21
+        .endif
+.endm
+
+; The entry for shift n: floor((P + 2^(n-1)) 2^-n) = floor((Q + 2^(s-1)) 2^-s), s = n - 8.
+.macro MULF_ENTRY n
+        .section .text.fx_mul_f\n, "ax", @progbits
+        .global fx_mul_f\n     ; named, so that profiles name it
+fx_mul_f\n:
+        .set    s, \n - 8
+        .set    b, s - 1        ; + 2^b, from the byte that holds bit b up
+        .set    j, b / 8
+        QR      rr, j
+        subi    rr, (0x100 - (1 << (b % 8))) & 0xff
+        .rept   4 - b / 8
+        .set    j, j + 1
+        QR      rr, j
+        sbci    rr, 0xff
+        .endr
+        .set    B, s / 8        ; >> s: bytes from B, then R bits
+        .set    R, s % 8
+        .rept   R
+        lsr     21
+        .set    j, 3
+        .rept   4 - B
+        QR      rr, j
+        ror     rr
+        .set    j, j - 1
+        .endr
+        .endr
+        .set    i, 0
+        .rept   4
+        .if     B + i <= 4
+        QR      rr, B + i
+        mov     22 + i, rr
+        .else
+        mov     22 + i, 18
+        .endif
+        .set    i, i + 1
+        .endr
+        .if     s < 8           ; |a| m 2^-n can pass 2^31 - 1 only for n < 16
+        tst     21
+        brne    8f
+        sbrc    25, 7
+        rjmp    8f
+        .endif
+7:      brtc    9f
+        com     25              ; negative: the magnitude negated
+        com     24
+        com     23
+        neg     22
+        sbci    23, 0xff
+        sbci    24, 0xff
+        sbci    25, 0xff
+9:      ret
+        .if     s < 8
+8:      brtc    10f             ; past it: exactly 2^31 is INT32_MIN when negative
+        tst     21
+        brne    10f
+        cpi     25, 0x80
+        brne    10f
+        mov     0, 24
+        or      0, 23
+        or      0, 22
+        brne    10f
+        rjmp    7b
+10:     ldi     22, 0xff        ; saturated: INT32_MAX, or INT32_MIN when negative
+        ldi     23, 0xff
+        ldi     24, 0xff
+        ldi     25, 0x7f
+        brtc    11f
+        ldi     22, 0
+        ldi     23, 0
+        ldi     24, 0
+        ldi     25, 0x80
+11:     movw    30, 16
+        ld      18, Z
+        ori     18, SATURATED
+        st      Z, 18
+        ret
+        .endif
+.endm
+
+        .irp    n, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18, 19, 20, 21, 22, 23, 24, 25, 26, 27, 28, 29, 30, 31, 32, 33, 34, 35, 36, 37, 38, 39, 40, 41, 42, 43, 44, 45, 46, 47
+        MULF_ENTRY \n
+        .endr
+
+; the entries by shift, in .progmem (below 64 KB: LPM with a 16-bit Z; gs() for ijmp)
+        .section .progmem.fx_mul_f_table, "a", @progbits
+fx_mul_f_table:
+        .irp    n, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18, 19, 20, 21, 22, 23, 24, 25, 26, 27, 28, 29, 30, 31, 32, 33, 34, 35, 36, 37, 38, 39, 40, 41, 42, 43, 44, 45, 46, 47
+        .word   gs(fx_mul_f\n)
+        .endr
 
         .section .text.fx_mul_f_avr, "ax", @progbits
         .global fx_mul_f_avr
@@ -61,89 +168,14 @@ fx_mul_f_avr:
         add     r30, r0
         adc     r31, r1
         clr     r1
-        subi    r22, 9          ; k = sh - 9: P >> 8 goes right by k + 1, the last bit rounding
-        sbrs    r22, 5          ; k & 32
-        rjmp    2f
-        mov     r19, r31
-        clr     r26
-        clr     r27
-        clr     r30
+        movw    r20, r30        ; P4, P5 out of Z
+        mov     r30, r22        ; the entry for sh (9..47)
+        subi    r30, 9
+        lsl     r30
         clr     r31
-2:      sbrs    r22, 4          ; k & 16
-        rjmp    3f
-        mov     r19, r27
-        mov     r26, r30
-        mov     r27, r31
-        clr     r30
-        clr     r31
-3:      sbrs    r22, 3          ; k & 8
-        rjmp    4f
-        mov     r19, r26
-        mov     r26, r27
-        mov     r27, r30
-        mov     r30, r31
-        clr     r31
-4:      andi    r22, 7
-        breq    6f
-5:      lsr     r31
-        ror     r30
-        ror     r27
-        ror     r26
-        ror     r19
-        dec     r22
-        brne    5b
-6:      lsr     r31             ; the last bit: its carry rounds half up the magnitude
-        ror     r30
-        ror     r27
-        ror     r26
-        ror     r19
-        adc     r19, r18
-        adc     r26, r18
-        adc     r27, r18
-        adc     r30, r18
-        adc     r31, r18
-        tst     r31             ; the magnitude past 2^31 - 1?
-        brne    8f
-        sbrc    r30, 7
-        rjmp    8f
-7:      brtc    9f
-        com     r30             ; negative: the magnitude negated
-        com     r27
-        com     r26
-        neg     r19
-        sbci    r26, 0xff
-        sbci    r27, 0xff
-        sbci    r30, 0xff
-9:      mov     r22, r19
-        mov     r23, r26
-        mov     r24, r27
-        mov     r25, r30
-        ret
-8:      brtc    10f             ; past it: exactly 2^31 is INT32_MIN when negative
-        tst     r31
-        brne    10f
-        cpi     r30, 0x80
-        brne    10f
-        mov     r0, r27
-        or      r0, r26
-        or      r0, r19
-        brne    10f
-        rjmp    7b
-10:     ldi     r19, 0xff       ; saturated: INT32_MAX, or INT32_MIN when negative
-        ldi     r26, 0xff
-        ldi     r27, 0xff
-        ldi     r30, 0x7f
-        brtc    11f
-        ldi     r19, 0
-        ldi     r26, 0
-        ldi     r27, 0
-        ldi     r30, 0x80
-11:     mov     r22, r19
-        mov     r23, r26
-        mov     r24, r27
-        mov     r25, r30
-        movw    r30, r16
-        ld      r18, Z
-        ori     r18, SATURATED
-        st      Z, r18
-        ret
+        subi    r30, lo8(-(fx_mul_f_table))
+        sbci    r31, hi8(-(fx_mul_f_table))
+        lpm     r0, Z+
+        lpm     r31, Z
+        mov     r30, r0
+        ijmp
