@@ -14,6 +14,7 @@
 ; (QEMU 7.2 runs one wrong: see firmware/src/mulhisi3.S).
 
 #define SATURATED 0x01          /* STATUS_SATURATED, proto/messages.h */
+#include "fx_table_jump.inc"
 #define E 26                    /* sign fill of the rounded product: its byte 8 */
 #define S 27                    /* sign fill of the result */
 
@@ -258,12 +259,7 @@ fx_mul_shr_n:
         brsh    1f
         lsl     r30             ; the entry's word in the table
         clr     r31
-        subi    r30, lo8(-(fx_mul_h_table))
-        sbci    r31, hi8(-(fx_mul_h_table))
-        lpm     r0, Z+
-        lpm     r31, Z
-        mov     r30, r0
-        ijmp
+        JUMP_THROUGH fx_mul_h_table
 1:      clr     r22
         clr     r23
         movw    r24, r22

@@ -11,6 +11,7 @@
 ; a RET (QEMU 7.2 runs one wrong: see firmware/src/mulhisi3.S).
 
 #define SATURATED 0x01          /* STATUS_SATURATED, proto/messages.h */
+#include "fx_table_jump.inc"
 
 ; Q = P >> 8 (P = |a| m < 2^47) lives in five registers, byte i of Q in QREG(i):
 ; r19, r26, r27, r20, r21. r18 is zero.
@@ -111,7 +112,7 @@ fx_mul_f\n:
         MULF_ENTRY \n
         .endr
 
-; the entries by shift, in .progmem (below 64 KB: LPM with a 16-bit Z; gs() for ijmp)
+; the entries by shift, for JUMP_THROUGH
         .section .progmem.fx_mul_f_table, "a", @progbits
 fx_mul_f_table:
         .irp    n, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18, 19, 20, 21, 22, 23, 24, 25, 26, 27, 28, 29, 30, 31, 32, 33, 34, 35, 36, 37, 38, 39, 40, 41, 42, 43, 44, 45, 46, 47
@@ -173,9 +174,4 @@ fx_mul_f_avr:
         subi    r30, 9
         lsl     r30
         clr     r31
-        subi    r30, lo8(-(fx_mul_f_table))
-        sbci    r31, hi8(-(fx_mul_f_table))
-        lpm     r0, Z+
-        lpm     r31, Z
-        mov     r30, r0
-        ijmp
+        JUMP_THROUGH fx_mul_f_table
