@@ -59,6 +59,31 @@ def test_ill_conditioned_says_when_the_prior_holds_the_mass_not_the_data(
     assert result.figures.status["ILL_CONDITIONED"] <= 3
 
 
+@pytest.mark.parametrize("mode", ["F32", "FIXED"])
+def test_rls_ill_conditioned_says_when_the_prior_holds_an_estimate(run_scenario, mode) -> None:  # noqa: ANN001
+    """Cruising at a constant throttle (rls-no-excitation-fixed), ψ barely moves within RLS's
+    ~0.2 s memory: the forgetting lets P grow to the windup guard in the directions the data
+    do not pin, and a variance above held_max P(0) says so, as in float64. A dithered throttle
+    (rls-heavy-fixed) keeps every variance low once the first samples have moved P off P(0)."""
+    held = dataclasses.replace(scenario.load("rls-no-excitation-fixed"), mode=mode)
+    result = run_scenario(held, board="native")
+    result.assert_passed()
+    flagged = (result.run.status & stlqf.ILL_CONDITIONED) != 0
+    assert flagged.mean() > 0.9
+    reference = stlqf.Rls(held.params)
+    expected = []
+    for u in result.run.prepared.inputs:
+        reference.step(u)
+        expected.append(bool(reference.flags & stlqf.ILL_CONDITIONED))
+    # FIXED agrees on all but a few steps; float32's P carries 24 bits (95 % agree)
+    assert np.mean(flagged == np.array(expected)) > (0.99 if mode == "FIXED" else 0.9)
+    excited = dataclasses.replace(scenario.load("rls-heavy-fixed"), mode=mode)
+    result = run_scenario(excited, board="native")
+    flagged = (result.run.status & stlqf.ILL_CONDITIONED) != 0
+    assert flagged[:40].all()  # P(0): the prior holds every estimate at the start
+    assert not flagged[100:].any()
+
+
 def test_a_weight_matrix_that_is_not_positive_definite_is_refused_with_a11(built) -> None:  # noqa: ANN001
     spec = stlqf.STLQF
     values = spec.param_values({"a11": 1.0, "a12": 3.0})

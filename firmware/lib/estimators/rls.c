@@ -6,12 +6,12 @@
 #include "proto/wire.h"
 #include "rom/rom.h"
 
-enum { P_LAMBDA, P_P0_M, P_P0_CDA, P_CAP, N_OWN };
+enum { P_LAMBDA, P_P0_M, P_P0_CDA, P_CAP, P_HELD, N_OWN };
 #define N_PARAMS (N_OWN + LONGIT_N_PARAMS)
 #define ONE_Q30 ((int32_t)1 << 30)
 
 static const ROM param_range_t ranges[N_OWN] = {
-    {0.5f, 1.0f, 30}, {0.0f, 1e9f, 0}, {0.0f, 1e4f, 16}, {1.0f, 1e6f, 0}};
+    {0.5f, 1.0f, 30}, {0.0f, 1e9f, 0}, {0.0f, 1e4f, 16}, {1.0f, 1e6f, 0}, {1e-3f, 1e4f, 16}};
 
 /* FIXED's Q formats: ψ = [v̇, ½ρv², g/cos ε] as longit gives them, θ = [m, C_dA_f, m sin]. */
 static const uint8_t psi_q[3] = {24, 18, 26};
@@ -206,11 +206,23 @@ static void configure_q(rls_state_t *s, const uint8_t *params)
     const int64_t p0[3] = {param_q(params, P_P0_M), param_q(params, P_P0_CDA),
                            param_q(params, P_P0_M)};
     const uint8_t p0_q[3] = {0, 16, 0};
+    int64_t held = param_q(params, P_HELD); /* Q16 */
+    int32_t lambda = param_q(params, P_LAMBDA);
     for (uint8_t i = 0; i < 3u; i++) {
         to_scaled(p0[i], p0_q[i], &s->u.q.p0[i], &s->u.q.e_p0[i]);
         to_scaled(p0[i] * p_cap, p0_q[i], &s->u.q.cap[i], &s->u.q.e_cap[i]);
+        /* P_ii > held_max P(0)_ii as P̃_ii 4^e_i > (held_max P(0)_ii / λ) l (P = (λ / l) P̃) */
+        int32_t *h = &s->u.q.held[i];
+        int8_t *e = &s->u.q.e_held[i];
+        uint8_t st = 0;
+        to_scaled(held * p0[i], (uint8_t)(16u + p0_q[i]), h, e);
+        *h = fx_div(*h, 30, lambda, 30, 30, &st); /* in [1/4, 2) */
+        if (*h >= ONE_Q30) {
+            *h = (*h + 2) >> 2;
+            (*e)++;
+        }
     }
-    s->u.q.lambda = param_q(params, P_LAMBDA);
+    s->u.q.lambda = lambda;
 }
 
 static uint8_t rls_configure(void *state, uint8_t mode, const uint8_t *params)
@@ -227,8 +239,10 @@ static uint8_t rls_configure(void *state, uint8_t mode, const uint8_t *params)
     float p_cap = param_value(params, P_CAP, mode, param_range_q(ranges, P_CAP));
     s->p0[0] = s->p0[2] = p0_m;
     s->p0[1] = param_value(params, P_P0_CDA, mode, param_range_q(ranges, P_P0_CDA));
+    float held = param_value(params, P_HELD, mode, param_range_q(ranges, P_HELD));
     for (uint8_t i = 0; i < 3u; i++) {
         s->cap[i] = p_cap * s->p0[i];
+        s->held[i] = held * s->p0[i];
     }
     if (mode == MODE_FIXED) {
         configure_q(s, params);
@@ -275,6 +289,11 @@ __attribute__((noinline)) static uint8_t step_f32(rls_state_t *s, const uint8_t 
             status = STATUS_SINGULAR;
         }
     }
+    for (uint8_t i = 0; i < 3u; i++) {
+        if (P[4u * i] > s->held[i]) { /* more prior than data (rls.md) */
+            status |= STATUS_ILL_CONDITIONED;
+        }
+    }
     return (uint8_t)(status | longit_outputs(&s->model, theta[0], theta[1], theta[2], out));
 }
 
@@ -303,17 +322,18 @@ static uint8_t renormalise(int32_t *P, int8_t *e, uint8_t *st)
     return 1;
 }
 
-/* Whether P_ii / λ = P̃_ii 4^e_i / l would pass the cap, P̃_ii renormalised; only when the
- * exponents are close is l multiplied in. */
-static uint8_t past_cap(const rls_state_t *s, uint8_t i, uint8_t *st)
+/* Whether P̃_ii 4^e_i > m 4^e l for a threshold m 4^e (m in [1/4, 1)), P̃_ii renormalised:
+ * the windup guard's P_ii / λ > cap and ILL_CONDITIONED's P_ii > held_max P(0)_ii. Only
+ * when the exponents are close is l multiplied in. */
+FX_INLINE uint8_t above(const rls_state_t *s, uint8_t i, int32_t m, int8_t e, uint8_t *st)
 {
-    int8_t k = (int8_t)(s->u.q.e[i] - s->u.q.e_cap[i]);
+    int8_t k = (int8_t)(s->u.q.e[i] - e);
     if (k < -1 || k > 1) {
-        return k > 1; /* P̃ 16 >= 4 > cap l, or P̃ / 16 < 1/16 <= cap l */
+        return k > 1; /* P̃ 16 >= 4 > m l, or P̃ / 16 < 1/16 <= m l */
     }
     int32_t p = s->u.q.P[at[i][i]];
-    int32_t cap = fx_mul_shr(s->u.q.cap[i], s->u.q.l, 30, st); /* in [1/16, 1) */
-    return k == 0 ? p > cap : (k > 0 ? p > (cap >> 2) : (p >> 2) > cap);
+    int32_t t = fx_mul_shr(m, s->u.q.l, 30, st); /* in [1/16, 1) */
+    return k == 0 ? p > t : (k > 0 ? p > (t >> 2) : (p >> 2) > t);
 }
 
 /* θ += 2^(e - k) t err and P̃ -= t ŵᵀ 2^-n_p, k = top + g - gw and n_p = 27 - 2 gw + g
@@ -406,7 +426,7 @@ __attribute__((noinline)) static void update_q(rls_state_t *s, const int32_t *x,
         st |= STATUS_SINGULAR;
     }
     for (uint8_t i = 0; i < 3u; i++) {
-        forget = past_cap(s, i, &st) ? 0u : forget; /* windup guard */
+        forget = above(s, i, s->u.q.cap[i], s->u.q.e_cap[i], &st) ? 0u : forget; /* windup */
     }
     if (forget) { /* P / λ as l λ */
         s->u.q.l = fx_mul_shr(s->u.q.l, s->u.q.lambda, 30, &st);
@@ -428,6 +448,11 @@ static uint8_t step_q(rls_state_t *s, const uint8_t *in, uint8_t *out)
     longit_inputs_q(&s->u.q.shared, in, x, &st);
     if (!(st & STATUS_CLAMPED)) { /* a sample past FIXED's bounds would teach a wrong θ */
         update_q(s, x, &st);
+    }
+    for (uint8_t i = 0; i < 3u; i++) {
+        if (above(s, i, s->u.q.held[i], s->u.q.e_held[i], &st)) { /* more prior than data */
+            st |= STATUS_ILL_CONDITIONED;
+        }
     }
     int32_t ratio = 0;
     if (theta[0] > 0) {

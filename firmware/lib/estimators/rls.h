@@ -12,8 +12,12 @@
  * multiply is fixmath's assembly kernel for its shift.
  * It needs v < 82 m/s, |v̇| < 16 m/s², |z| < 32 kN (longit.h) and takes no prefilter.
  *
+ * ILL_CONDITIONED while a variance P_ii is above held_max P(0)_ii: the prior (or the
+ * forgetting and the windup guard that hold P near it) carries that estimate more than the
+ * data do (docs/estimators/rls.md).
  * Inputs  v [m/s] Q24, v̇ [m/s²] Q24, z [N] Q14.  Outputs m̂ [kg] Q16, Ĉ_dA_f [m²] Q16,
- * β̂_r [deg] Q20.  Params  λ, P(0) of m and m sin, P(0) of C_dA_f, p_cap, then longit's. */
+ * β̂_r [deg] Q20.  Params  λ, P(0) of m and m sin, P(0) of C_dA_f, p_cap, held_max, then
+ * longit's. */
 #ifndef VEHIL_ESTIMATORS_RLS_H
 #define VEHIL_ESTIMATORS_RLS_H
 
@@ -28,6 +32,7 @@ typedef struct {
     longit_t model;
     uint8_t mode;
     float lambda, p0[3], cap[3]; /* cap: forgetting pauses while a variance would pass it */
+    float held[3];               /* ILL_CONDITIONED while a variance is above held_max P(0) */
     union {
         struct {
             float theta[3], P[9];
@@ -37,7 +42,8 @@ typedef struct {
             int32_t P[6];              /* P̃ 00 10 11 20 21 22, Q30 */
             int8_t e[3];               /* P_ij = P̃_ij 2^(e_i + e_j) */
             int32_t p0[3], cap[3];     /* P(0)_ii and p_cap P(0)_ii as P̃ (Q30) */
-            int8_t e_p0[3], e_cap[3];  /* with these exponents */
+            int32_t held[3];           /* held_max P(0)_ii / λ as P̃ (Q30) */
+            int8_t e_p0[3], e_cap[3], e_held[3]; /* with these exponents */
             int32_t lambda, l;         /* λ and l, Q30: l in [1/4, 1] */
             longit_q_t shared;
         } q;

@@ -328,6 +328,7 @@ class Rls:
         self.P = np.diag([p["p0_m"], p["p0_cda"], p["p0_m"]])
         self.cap = p["p_cap"] * np.diag(self.P)
         self.prefilter = Prefilter(p)
+        self.flags = 0
 
     def step(self, u: np.ndarray) -> np.ndarray:
         psi, z = measured(u, self.p, self.prefilter)
@@ -340,8 +341,11 @@ class Rls:
         # Forgetting stops while a variance would pass p_cap times its start (windup
         # guard: without it P grows as λ^-n in directions the drive does not excite).
         self.P = P if np.any(np.diag(P) / lam > self.cap) else P / lam
+        p0 = self.cap / self.p["p_cap"]
         if not np.all(np.diag(self.P) > 0):  # round-off broke P: start it again
-            self.P = np.diag(self.cap / self.p["p_cap"])
+            self.P = np.diag(p0)
+        # The prior's share of each estimate, P_ii / P(0)_ii (docs/estimators/rls.md).
+        self.flags = ILL_CONDITIONED if np.any(np.diag(self.P) > self.p["held_max"] * p0) else 0
         return np.array([self.theta[0], self.theta[1], grade_deg(self.theta, self.p)])
 
 
@@ -376,6 +380,15 @@ RLS = register(
             Param("p0_m", "kg^2", q=0, default=1e4, lo=0.0, hi=1e9, doc="P(0) of m and m sin"),
             Param("p0_cda", "m^4", q=16, default=1.0, lo=0.0, hi=1e4, doc="P(0) of C_dA_f"),
             Param("p_cap", "1", q=0, default=100.0, lo=1.0, hi=1e6, doc="windup guard"),
+            Param(
+                "held_max",
+                "1",
+                q=16,
+                default=0.5,
+                lo=1e-3,
+                hi=1e4,
+                doc="ILL_CONDITIONED while a variance is above held_max times its P(0)",
+            ),
             *SHARED_PARAMS,
         ),
         rules=(no_fixed_prefilter,),

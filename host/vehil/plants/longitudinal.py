@@ -35,9 +35,10 @@ how it resampled); `gps = "file.csv"` in a scenario's [plant] puts a real GPS lo
 amplitude and frequency, for drives unlike the paper's).
 
 Drives (`profile`): 0 the paper's 75 s from rest (a throttle trace like Fig. 16's);
-1 strong throttle steps on a flat road; `dither` adds a small fast throttle dither
-(sign flips every 20-40 ms) that the note's addendum found is what makes the STLQF
-window system well conditioned. `mass` and `cda` replace Table 1's 1250 kg and 0.48 m²
+1 strong throttle steps on a flat road; 2 a constant throttle, `cruise_throttle` (the car
+settles to a cruise: ψ barely moves, nothing excites RLS); `dither` adds a small fast
+throttle dither (sign flips every 20-40 ms) that the note's addendum found is what makes
+the STLQF window system well conditioned. `mass` and `cda` replace Table 1's 1250 kg and 0.48 m²
 (a heavier or draggier car than the shipped drives); `mass_step` kg is added at
 `t_mass` (a trailer or passengers); `noise` = 1 gives realistic sensors (σ 0.05 m/s
 on v, 0.1 m/s² on v̇, 10 N on z) instead of the paper's σ_N on z alone.
@@ -159,15 +160,16 @@ def gps_grade(
     return lambda t_out: np.interp(t_out, t, beta)
 
 
-def throttle_trace(profile: int, t: np.ndarray) -> np.ndarray:
+def throttle_trace(profile: int, t: np.ndarray, cruise: float) -> np.ndarray:
     if profile == 0:  # Fig. 16-like: pull away, cruise with lifts and re-accelerations
         knots = (
             [0, 2, 8, 15, 22, 28, 35, 40, 46, 52, 60, 66, 75],
             [0.3, 0.35, 0.3, 0.2, 0.18, 0.25, 0.15, 0.05, 0.22, 0.2, 0.28, 0.15, 0.18],
         )
         return np.interp(t, *knots)
-    # 1: strong steps between light and heavy throttle every 4 s.
-    return np.where((t // 4.0) % 2 == 0, 0.7, 0.05)
+    if profile == 1:  # strong steps between light and heavy throttle every 4 s
+        return np.where((t // 4.0) % 2 == 0, 0.7, 0.05)
+    return np.full_like(t, cruise)  # 2: a constant throttle, the car settles to a cruise
 
 
 class Dither:
@@ -225,7 +227,8 @@ def _stream(
     for t in chunk_times(n, T, chunk):
         m = len(t)
         grade = grade_at(t)
-        throttle = np.clip(throttle_trace(int(p["profile"]), t) + dither.take(m), 0.0, 1.0)
+        trace = throttle_trace(int(p["profile"]), t, p["cruise_throttle"])
+        throttle = np.clip(trace + dither.take(m), 0.0, 1.0)
         mass = np.where(t >= p["t_mass"], p["mass"] + p["mass_step"], p["mass"])
         p_brake = np.where((t >= p["t_brake"]) & (t < p["t_brake"] + 3.0), p["brake_mpa"], 0.0)
         throttle[p_brake > 0] = 0.0
@@ -272,7 +275,15 @@ SPEC = register(
         name="longitudinal",
         title="Sedan, engine + torque converter + 5-speed automatic, straight road (seed 002)",
         params=(
-            Param("profile", "1", default=0, lo=0, hi=1, doc="0 paper-like 75 s, 1 throttle steps"),
+            Param(
+                "profile",
+                "1",
+                default=0,
+                lo=0,
+                hi=2,
+                doc="0 paper-like 75 s, 1 throttle steps, 2 constant throttle (a cruise)",
+            ),
+            Param("cruise_throttle", "1", default=0.12, lo=0.0, hi=1.0, doc="profile 2's"),
             Param("road", "1", default=0, lo=0, hi=2, doc="0 GPS road, 1 flat, 2 5° sin(0.3 t)"),
             Param("resample", "1", default=0, lo=0, hi=1, doc="GPS grade: 0 linear, 1 spline"),
             Param("dither", "1", default=0.0, lo=0.0, hi=0.2, doc="throttle dither amplitude"),
