@@ -5,7 +5,7 @@ import pytest
 
 from vehil.boards import open_board
 from vehil.errors import BoardError
-from vehil.estimators import uiiekf
+from vehil.estimators import manf, uiiekf
 from vehil.protocol.schema import SCHEMA
 
 DIVERGED = SCHEMA.status["DIVERGED"]
@@ -17,6 +17,8 @@ DIVERGED = SCHEMA.status["DIVERGED"]
         "manf-hard-stop",
         "manf-hard-stop-fixed",
         "manf-abs-snow",
+        "manf-hard-stop-10ms-rate",
+        "manf-hard-stop-10ms-rate-fixed",
         "anf-hard-stop",
         "anf-abs-snow-fixed",
         "uiiekf3-abs-dry",
@@ -26,6 +28,16 @@ DIVERGED = SCHEMA.status["DIVERGED"]
 )
 def test_board_estimators_follow_their_references(run_scenario, name) -> None:  # noqa: ANN001
     run_scenario(name, board="native").assert_passed()
+
+
+@pytest.mark.parametrize("mode", ["F32", "FIXED"])
+def test_manf_refuses_a_rate_past_its_per_sample_ceiling(built, mode: str) -> None:  # noqa: ANN001
+    """γ = 1.01 per millisecond is γ^100 = 2.7 per 100 ms step, past 1.9: BAD_PARAM t_ref."""
+    spec = manf.SPEC
+    values = spec.param_values({"T": 0.1, "t_ref": 0.001})
+    with open_board("native") as link, pytest.raises(BoardError, match="BAD_PARAM") as exc:
+        link.configure("manf", mode, spec.encode_params(values, mode))
+    assert exc.value.detail == [p.name for p in spec.params].index("t_ref")
 
 
 def test_uiiekf_refuses_a_state_count_it_does_not_have(built) -> None:  # noqa: ANN001

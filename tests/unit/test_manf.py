@@ -89,3 +89,29 @@ def test_the_braking_plant_can_lag_where_the_filters_assume_it_does_not(lag) -> 
     else:
         drop = [t.truth["v"][500] - t.truth["v"][k] for t in (shipped, lagged)]
         assert drop[1] < 0.9 * drop[0]
+
+
+@pytest.mark.parametrize("plant", [{"profile": 0}, {"profile": 2, "torque": 3000}])
+def test_rate_normalised_gains_make_a_10_ms_drive_behave_as_a_1_ms_one(plant) -> None:  # noqa: ANN001
+    """The same car and stop sampled at 1 ms and 10 ms (hard stop, ABS): with γ and ξ per
+    sample (the paper) the 10 ms filter is 3x worse or more; with t_ref = 1 ms (rates per
+    millisecond, γ^(T / t_ref) a step) it stays within 30 % of the 1 ms filter, which t_ref
+    leaves as it was."""
+
+    def rms(T: float, **overrides: float) -> float:
+        trace = plants.get("braking").run({"v0_kmh": 90, **plant}, 4.0, T, 1)
+        u = np.column_stack([trace.signals[n] for n in INPUTS])
+        v = run_manf(u, T=T, **overrides)[:, 0]
+        return float(np.sqrt(np.mean((v - trace.truth["v"]) ** 2)))
+
+    at_1ms = rms(0.001)
+    assert rms(0.001, t_ref=0.001) == at_1ms
+    assert rms(0.01) > 3 * at_1ms
+    assert abs(rms(0.01, t_ref=0.001) - at_1ms) < 0.3 * at_1ms
+
+
+def test_a_rate_past_the_per_sample_ceiling_is_refused() -> None:
+    values = manf.SPEC.param_values({"T": 0.1, "t_ref": 0.001, "gamma": 1.01})
+    assert any("t_ref" in m for m in manf.SPEC.rule_problems(values, "F32"))
+    with pytest.raises(ValueError, match="gamma"):
+        manf.Manf(values)

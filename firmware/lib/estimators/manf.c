@@ -8,14 +8,78 @@
 #include "fixmath/fixmath.h"
 #include "proto/wire.h"
 
-enum { P_T, P_RW, P_WHEEL, P_GAMMA, P_XI, P_RG0, P_A, P_SIGN, P_READING, N_PARAMS };
+enum { P_T, P_RW, P_WHEEL, P_GAMMA, P_XI, P_RG0, P_A, P_SIGN, P_READING, P_TREF, N_PARAMS };
 
 #define ONE_Q30 (INT32_C(1) << 30)
 
 static const ROM param_range_t ranges[N_PARAMS] = {
     {1e-4f, 0.1f, 30},  {0.1f, 1.0f, 24}, {0.0f, 2.0f, 0}, {1.0f, 1.9f, 30}, {0.0f, 1.0f, 30},
-    {0.0f, 100.0f, 24}, {0.1f, 100.0f, 24}, {0.0f, 1.0f, 0}, {0.0f, 1.0f, 0},
+    {0.0f, 100.0f, 24}, {0.1f, 100.0f, 24}, {0.0f, 1.0f, 0}, {0.0f, 1.0f, 0}, {0.0f, 1.0f, 30},
 };
+
+#define GAMMA_MAX 1.9f /* R_g γ below 2^32 in FIXED's unsigned Q24 */
+#define LN2_F 0.693147181f
+
+/* x^k for 0 <= x < 2, k > 0, from IEEE operations alone (libm's last bit differs between
+ * avr-libc and the host; CONFIG must derive the same bits on both): ln x from atanh's
+ * series once exact doublings bring x into [3/4, 3/2), exp from Taylor's series once whole
+ * multiples of ln 2 are taken out. Relative error ~1e-6; results past 2 give 2. */
+static float pow_cf(float x, float k)
+{
+    if (x <= 0.0f) {
+        return 0.0f;
+    }
+    int8_t e = 0;
+    while (x < 0.75f) {
+        x *= 2.0f;
+        e--;
+    }
+    while (x >= 1.5f) {
+        x *= 0.5f;
+        e++;
+    }
+    float z = (x - 1.0f) / (x + 1.0f), z2 = z * z, term = z, ln = 0.0f;
+    for (uint8_t j = 1; j < 20u; j += 2) {
+        ln += term / (float)j;
+        term *= z2;
+    }
+    float y = k * (2.0f * ln + (float)e * LN2_F);
+    if (y > LN2_F) {
+        return 2.0f;
+    }
+    if (y < -80.0f) {
+        return 0.0f;
+    }
+    int8_t n = 0;
+    while (y < -0.5f * LN2_F) {
+        y += LN2_F;
+        n++;
+    }
+    float sum = 1.0f, t = 1.0f;
+    for (uint8_t j = 1; j < 12u; j++) {
+        t *= y / (float)j;
+        sum += t;
+    }
+    while (n-- > 0) {
+        sum *= 0.5f;
+    }
+    return sum;
+}
+
+/* γ and ξ per sample: as given (t_ref = 0, the paper: eqs. 39-40 act per sample), or rates
+ * per t_ref of time raised to T / t_ref, so the filter is the same at any sample time
+ * (docs/estimators/manf.md). */
+static void per_sample(const uint8_t *params, uint8_t mode, float *gamma, float *xi)
+{
+    *gamma = param_value(params, P_GAMMA, mode, 30);
+    *xi = param_value(params, P_XI, mode, 30);
+    float t_ref = param_value(params, P_TREF, mode, 30);
+    if (t_ref > 0.0f) {
+        float k = param_value(params, P_T, mode, 30) / t_ref;
+        *gamma = pow_cf(*gamma, k);
+        *xi = pow_cf(*xi, k);
+    }
+}
 
 /* Eqs. 39-42: the gain follows the error's sign pattern. Returns the new sign memory. */
 static int8_t adapt_sign(int8_t s_prev, int8_t s, uint8_t *grow)
@@ -142,6 +206,11 @@ static uint8_t manf_configure(void *state, uint8_t mode, const uint8_t *params)
     if (bad != 0) {
         return bad;
     }
+    float gamma, xi;
+    per_sample(params, mode, &gamma, &xi);
+    if (gamma > GAMMA_MAX * 1.000001f) { /* pow_cf's last bits: 1.9 itself passes */
+        return (uint8_t)(P_TREF + 1u); /* a rate per t_ref past 1.9 per sample */
+    }
     st->mode = mode;
     st->wheel = (uint8_t)param_value(params, P_WHEEL, mode, 0);
     st->printed_sign = param_value(params, P_SIGN, mode, 0) >= 0.5f;
@@ -150,19 +219,24 @@ static uint8_t manf_configure(void *state, uint8_t mode, const uint8_t *params)
         st->u.f32.p = (manf_params_f32_t){
             .T = get_f32(params + 4u * P_T),
             .r_w = get_f32(params + 4u * P_RW),
-            .gamma = get_f32(params + 4u * P_GAMMA),
-            .xi = get_f32(params + 4u * P_XI),
+            .gamma = gamma,
+            .xi = xi,
             .rg0 = get_f32(params + 4u * P_RG0),
             .a = get_f32(params + 4u * P_A),
         };
         st->u.f32.p.limit = st->u.f32.p.a * st->u.f32.p.T;
     } else {
         manf_params_q_t *p = &st->u.q.p;
-        int32_t xi = param_q(params, P_XI);
+        int32_t gamma_q = param_q(params, P_GAMMA), xi_q = param_q(params, P_XI);
+        if (param_q(params, P_TREF) > 0) { /* the rates per sample, to Q30 */
+            uint8_t sat = 0; /* cannot: gamma <= 1.9, xi <= 1 */
+            gamma_q = fx_from_float(gamma, 30, &sat);
+            xi_q = fx_from_float(xi, 30, &sat);
+        }
         p->T = fx_ufactor((uint32_t)param_q(params, P_T), 30);
-        p->gamma_m1 = fx_ufactor((uint32_t)(param_q(params, P_GAMMA) - ONE_Q30), 30);
-        p->one_m_xi = fx_ufactor((uint32_t)(ONE_Q30 - xi), 30);
-        p->xi_zero = xi == 0;
+        p->gamma_m1 = fx_ufactor((uint32_t)(gamma_q - ONE_Q30), 30);
+        p->one_m_xi = fx_ufactor((uint32_t)(ONE_Q30 - xi_q), 30);
+        p->xi_zero = xi_q == 0;
         p->r_w = param_q(params, P_RW);
         p->rg0 = param_q(params, P_RG0);
         p->a = param_q(params, P_A);

@@ -5,7 +5,7 @@
  *
  * Inputs  ω_f, ω_r [rad/s] Q16.   Outputs v̂ [m/s] Q16, R_g [m/s²] Q24.
  * Params  T Q30, r_w Q24, wheel Q0, γ Q30, ξ Q30, R_g(0) Q24, a Q24, printed_sign Q0,
- *         reading Q0. Fixed point: tanh from fx_tanh, |error| <= 7e-4. */
+ *         reading Q0, t_ref Q30 (0: γ, ξ per sample; > 0: per t_ref, rate-normalised). Fixed point: tanh from fx_tanh, |error| <= 7e-4. */
 #ifndef VEHIL_ESTIMATORS_MANF_H
 #define VEHIL_ESTIMATORS_MANF_H
 

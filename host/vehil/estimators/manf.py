@@ -34,11 +34,38 @@ def _wheel_speed(p: Mapping[str, float], u: np.ndarray) -> float:
     return p["r_w"] * w
 
 
+GAMMA_MAX = 1.9  # R_g γ must stay below 2^32 in FIXED's unsigned Q24 (docs/estimators/manf.md)
+
+
+def per_sample_rates(p: Mapping[str, float]) -> tuple[float, float]:
+    """γ and ξ as the step applies them. With t_ref = 0 (the paper) they act per sample;
+    with t_ref > 0 they are rates per t_ref of time (beyond the paper), so a step of T
+    applies γ^(T / t_ref) and ξ^(T / t_ref) and the filter is the same at any sample time."""
+    if p["t_ref"] <= 0.0:
+        return p["gamma"], p["xi"]
+    k = p["T"] / p["t_ref"]
+    return p["gamma"] ** k, p["xi"] ** k
+
+
+def gamma_within_range(p: Mapping[str, float], mode: str = "F32") -> str | None:
+    """The per-sample γ at most GAMMA_MAX (a rate per t_ref raised to T / t_ref can pass it)."""
+    gamma, _ = per_sample_rates(p)
+    if gamma > GAMMA_MAX:
+        return (
+            f"gamma^(T / t_ref) = {gamma:.4g} is above {GAMMA_MAX:g} per sample: "
+            "lower gamma, shorten T or lengthen t_ref"
+        )
+    return None
+
+
 class Manf:
     """Note §3.5, float64. step([ω_f, ω_r]) -> [v̂, R_g]."""
 
     def __init__(self, p: Mapping[str, float]):
+        if problem := gamma_within_range(p):
+            raise ValueError(f"manf: {problem}")
         self.p = p
+        self.gamma, self.xi = per_sample_rates(p)
         self.v: float | None = None
         self.rg = p["rg0"]
         self.s_prev = 0
@@ -52,7 +79,7 @@ class Manf:
         e = self.v - v_w  # the a-priori error, for the law and the adaptation (§3.4.3)
         s = int(np.sign(e))
         if self.s_prev != 0 and s != 0:
-            self.rg *= p["gamma"] if s == self.s_prev else p["xi"]
+            self.rg *= self.gamma if s == self.s_prev else self.xi
         self.rg = min(max(self.rg, 0.0), p["a"])
         step = self.rg * np.tanh(e)
         if p["reading"] < 0.5:  # reading B: R_g is an acceleration
@@ -108,7 +135,17 @@ SPEC = register(
             Param("a", "m/s^2", q=24, default=8.0, lo=0.1, hi=100.0, doc="tolerable accel"),
             Param("printed_sign", "1", q=0, default=0, lo=0, hi=1, doc="1: eq. 44's sign"),
             Param("reading", "1", q=0, default=0, lo=0, hi=1, doc="0: T R_g (B), 1: R_g (A)"),
+            Param(
+                "t_ref",
+                "s",
+                q=30,
+                default=0.0,
+                lo=0.0,
+                hi=1.0,
+                doc="0: γ, ξ per sample (the paper); > 0: per t_ref, as γ^(T/t_ref), ξ^(T/t_ref)",
+            ),
         ),
+        rules=(gamma_within_range,),
         paper="000-manf-uiiekf-braking",
     )
 )
