@@ -54,7 +54,7 @@ static uint8_t step_f32(eso_state_t *st, const uint8_t *in, uint8_t *out)
 /* -- fixed point --------------------------------------------------------- */
 
 /* One observer, Euler (eq. 12): z Q28/Q24/Q20, y Q28, acceleration input Q20. */
-static void observer_q(const eso_q_t *s, int32_t *z, int32_t y, int32_t acc, uint8_t *st)
+FX_INLINE void observer_q(const eso_q_t *s, int32_t *z, int32_t y, int32_t acc, uint8_t *st)
 {
     int32_t e = fx_sub(y, z[0], st);
     int32_t z0 = fx_add(fx_add(z[0], fx_mul_f(z[1], s->T, st), st), fx_mul_f(e, s->g1, st), st);
@@ -64,7 +64,7 @@ static void observer_q(const eso_q_t *s, int32_t *z, int32_t y, int32_t acc, uin
     z[1] = z1;
 }
 
-static uint8_t step_q(eso_state_t *st, const uint8_t *in, uint8_t *out)
+__attribute__((flatten)) static uint8_t step_q(eso_state_t *st, const uint8_t *in, uint8_t *out)
 {
     eso_q_t *s = &st->u.q;
     const qcar_q_t *m = &s->ecu.model;
