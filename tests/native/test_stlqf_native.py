@@ -18,6 +18,8 @@ from vehil.estimators import stlqf
         ("paper-dither-fixed", "m", 0.05),  # the first window's step from 1000 kg included
         ("paper-dither-fixed", "grade", 0.5),
         ("mass-step", "m", 2.0),
+        ("well-excited-adaptive", "m", 0.05),  # μ adapting down to 1e-4
+        ("well-excited-adaptive", "grade", 0.5),
         ("rls-flat-steps", "grade", 0.5),
         ("rls-flat-steps-fixed", "grade", 6.0),
         # Unlike the shipped drives (the first window's step from 1000 kg included):

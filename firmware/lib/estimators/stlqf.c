@@ -82,10 +82,10 @@ static uint8_t band_factor(int32_t band[STLQF_ROWS][3], const int32_t a[3][3])
 static void band_apply(const float band[STLQF_ROWS][3], const float *col, float *out)
 {
     for (uint8_t i = 0; i + 2u < STLQF_ROWS; i++) {
-        out[i] = band[i][0] * col[i] + band[i][1] * col[i + 1u] + band[i][2] * col[i + 2u];
+        out[i] = fmaf(band[i][2], col[i + 2u], fmaf(band[i][1], col[i + 1u], band[i][0] * col[i]));
     }
-    out[STLQF_ROWS - 2u] = band[STLQF_ROWS - 2u][0] * col[STLQF_ROWS - 2u] +
-                           band[STLQF_ROWS - 2u][1] * col[STLQF_ROWS - 1u];
+    out[STLQF_ROWS - 2u] = fmaf(band[STLQF_ROWS - 2u][1], col[STLQF_ROWS - 1u],
+                                band[STLQF_ROWS - 2u][0] * col[STLQF_ROWS - 2u]);
     out[STLQF_ROWS - 1u] = band[STLQF_ROWS - 1u][0] * col[STLQF_ROWS - 1u];
 }
 
@@ -157,15 +157,24 @@ static float dot(const float *a, const float *b)
 static uint8_t solve_f32(stlqf_state_t *s, float *log_cond)
 {
     stlqf_f32_t *f = &s->u.f32;
-    /* Φ̃'s varying columns [τ v̇, v̇, τ q, q] and ζ, then X = R Φ̃ column by column. */
+    /* The prior: each value where the last window's line puts it one sample later, each
+     * slope zero. */
+    float prior[6];
+    for (uint8_t a = 0; a < 6u; a++) {
+        prior[a] = (a & 1u) ? f->theta[a] + f->theta[a - 1u] : 0.0f;
+    }
+    /* Φ̃'s varying columns [τ v̇, v̇, τ q, q] and the residual against the prior,
+     * ζ - Φ̃ θ_prior (where m v̇ cancels most of ζ, so its rounding is the residual's, not
+     * ζ's), then X = R Φ̃ column by column. */
     float phi[5][STLQF_ROWS], x[5][STLQF_ROWS];
+    float g_term = prior[5] * s->model.g_cos;
     for (uint8_t j = 0; j < STLQF_ROWS; j++) {
         const float *row = s->rows.f[slot(s, j)];
         phi[0][j] = (float)tau(j) * row[0] + row[2];
         phi[1][j] = row[0];
         phi[2][j] = (float)tau(j) * row[1] + row[3];
         phi[3][j] = row[1];
-        phi[4][j] = row[4];
+        phi[4][j] = fmaf(-prior[3], row[1], fmaf(-prior[1], row[0], row[4] - g_term));
     }
     for (uint8_t c = 0; c < 5u; c++) {
         band_apply(f->band, phi[c], x[c]);
@@ -183,18 +192,13 @@ static uint8_t solve_f32(stlqf_state_t *s, float *log_cond)
     }
     /* (D G D + μ I) y = D U + μ y_prior with D = diag(G)^-1/2 and θ = D y is, multiplied
      * out, (G + μ diag G) θ = U + μ diag(G) θ_prior: the Jacobi-scaled system without
-     * the scaling (Cholesky's rounding does not depend on it), ~12 k cycles saved. */
+     * the scaling (Cholesky's rounding does not depend on it), ~12 k cycles saved; for
+     * the step δ = θ - θ_prior, (G + μ diag G) δ = U - G θ_prior = Xᵀ R (ζ - Φ̃ θ_prior). */
     float scale[6];
     for (uint8_t i = 0; i < 6u; i++) {
-        uint8_t a = unknown(i);
         float gii = g[i * 6u + i];
         scale[i] = gii > 0.0f ? gii : 1.0f; /* a column of zeros (standing still) */
-        /* The prior: a value where the last window's line puts it one sample later,
-         * a slope zero. */
-        float prior = (a & 1u) ? f->theta[a] + f->theta[a - 1u] : 0.0f;
-        float pull = f->mu * scale[i];
-        g[i * 6u + i] += pull;
-        rhs[i] += pull * prior;
+        g[i * 6u + i] += f->mu * scale[i];
     }
     float inv[6];
     if (!chol_solve_f32(g, rhs, 6, inv)) {
@@ -208,7 +212,7 @@ static uint8_t solve_f32(stlqf_state_t *s, float *log_cond)
         float inv_pivot = inv[i] * inv[i] * scale[i];
         lo = (i == 0u || inv_pivot < lo) ? inv_pivot : lo;
         hi = (i == 0u || inv_pivot > hi) ? inv_pivot : hi;
-        f->theta[unknown(i)] = rhs[i];
+        f->theta[unknown(i)] = prior[unknown(i)] + rhs[i];
     }
     *log_cond = log10f(hi / lo);
     /* The mass's scaled pivot L² / G_mm is its information plus μ; the prior's share of

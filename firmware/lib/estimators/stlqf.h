@@ -5,7 +5,8 @@
  * spreads over the nine filtered rows; the system is Jacobi-scaled and solved by
  * Cholesky with μ pulling each value towards the previous window's and each slope
  * towards zero; μ adapts between mu_min and mu to the mass's information in the last
- * window (host: estimators/stlqf.py).
+ * window (host: estimators/stlqf.py). Both modes solve for the step from the prior
+ * against the window's residual ζ - Φ̃ θ_prior, where m v̇ cancels most of ζ.
  *
  * FIXED computes each filtered row exactly in int64 and keeps it as int32 mantissas
  * with an exponent per input (block floating point), and solves for the step from
