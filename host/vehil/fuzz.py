@@ -22,6 +22,7 @@ from vehil import estimators, project
 from vehil.build import native, project_image, registry
 from vehil.build.objects import Unit, compile_units, link
 from vehil.errors import BuildError
+from vehil.link import config_requests
 from vehil.paths import BUILD_DIR, DATA_ROOT
 from vehil.protocol import frame as framing
 from vehil.protocol.schema import SCHEMA
@@ -83,11 +84,19 @@ def seed_corpus(directory: Path, seed: int = 0) -> int:
     for name, spec in estimators.estimators().items():
         for mode in spec.modes:
             params = spec.encode_params(spec.param_values({}), mode)
-            conv = _frame("CONFIG", 1, estimator=spec.c_id, mode=SCHEMA.mode[mode], params=params)
+            config = config_requests(spec.c_id, SCHEMA.mode[mode], params)
+            conv = b"".join(_frame(req, 1 + i, **fields) for i, (req, fields) in enumerate(config))
             for k in range(4):
                 u = [rng.uniform(-50, 50) for _ in spec.inputs] or [1.0]
-                conv += _frame("SAMPLE", 2 + k, index=k, inputs=spec.encode_inputs(u, mode))
+                conv += _frame(
+                    "SAMPLE", len(config) + 1 + k, index=k, inputs=spec.encode_inputs(u, mode)
+                )
             files[f"{name}-{mode.lower()}"] = conv
+    # A CONFIG in parts (8 parameter bytes a frame), so the fuzzer starts from the staging path.
+    rls = estimators.estimators()["rls"]
+    block = rls.encode_params(rls.param_values({}), "F32")
+    split = config_requests(rls.c_id, SCHEMA.mode["F32"], block, max_body=12)
+    files["config-parts"] = b"".join(_frame(req, 1 + i, **f) for i, (req, f) in enumerate(split))
     for name, data in files.items():
         (directory / name).write_bytes(data)
     return len(files)

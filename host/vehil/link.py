@@ -37,7 +37,11 @@ _LAST_SEQ = framing.SEQ_MAX - 1
 MAX_FRAMES_IN_FLIGHT = 32
 # Sending these twice leaves the board as sending them once: CONFIG resets the estimator,
 # and a SAMPLE's index makes the board answer a repeat from its RESULT cache.
-_RETRYABLE = frozenset({"HELLO", "PING", "GET_STATS", "GET_ESTIMATOR", "CONFIG", "SAMPLE"})
+# A CONFIG_PART sent again rewrites the same bytes, and a CONFIG sent again applies the
+# same block (the board keeps its parts until a step).
+_RETRYABLE = frozenset(
+    {"HELLO", "PING", "GET_STATS", "GET_ESTIMATOR", "CONFIG", "CONFIG_PART", "SAMPLE"}
+)
 _RETRY_BACKOFF_S = (0.01, 0.2)  # first wait, longest wait
 _READ_SLICE_S = 0.02
 # Before the board's INFO says how large its RX buffer is.
@@ -123,6 +127,25 @@ class BoardInfo:
         raise LinkError(f"estimator {name!r} is not built into this firmware (built in: {built})")
 
 
+def config_requests(
+    estimator_id: int, mode: int, params: bytes, max_body: int = SCHEMA.max_body
+) -> list[tuple[str, dict[str, Any]]]:
+    """The requests that configure an estimator: its parameter block in one CONFIG if it
+    fits a frame, else CONFIG_PARTs of whole values and a CONFIG with the rest."""
+    config_room = max_body - SCHEMA.messages["CONFIG"].fixed_size
+    part_room = max_body - SCHEMA.messages["CONFIG_PART"].fixed_size
+    part_room -= part_room % 4  # whole 4-byte values per frame
+    requests: list[tuple[str, dict[str, Any]]] = []
+    offset = 0
+    while len(params) - offset > config_room:
+        requests.append(
+            ("CONFIG_PART", {"offset": offset, "params": params[offset : offset + part_room]})
+        )
+        offset += part_room
+    fields = {"estimator": estimator_id, "mode": mode, "offset": offset, "params": params[offset:]}
+    return [*requests, ("CONFIG", fields)]
+
+
 def describe_error(fields: dict[str, Any]) -> str:
     code = _ERROR_NAMES.get(fields["code"], f"code {fields['code']}")
     request = SCHEMA.by_type(fields["request"])
@@ -142,6 +165,12 @@ def describe_error(fields: dict[str, Any]) -> str:
         ),
         "OVERSIZE": f"a frame exceeded the board's {detail}-byte receive buffer",
         "OVERRUN": f"the board's RX buffer overflowed, {detail} bytes lost",
+        "OUT_OF_ORDER": (
+            f"the board holds {detail} parameter bytes: send the CONFIG_PARTs before in order"
+            if req in ("CONFIG", "CONFIG_PART")
+            else f"the board expects SAMPLE index {detail}"
+        ),
+        "PARAMS_OVERSIZE": f"the board holds at most {detail} parameter bytes",
         "UNKNOWN_TYPE": "the firmware does not know this request",
     }.get(code, f"detail {detail}")
     return f"board refused {req}: {code} ({explain})"
@@ -465,7 +494,14 @@ class Link:
         est = self.info.estimator(estimator)
         if mode not in SCHEMA.mode:
             raise ValueError(f"unknown numeric mode {mode!r}; known: {', '.join(SCHEMA.mode)}")
-        self.request("CONFIG", estimator=est.id, mode=SCHEMA.mode[mode], params=params)
+        self.config(est.id, SCHEMA.mode[mode], params)
+
+    def config(self, estimator_id: int, mode: int, params: bytes) -> Reply:
+        """CONFIG by wire id and mode code, in parts when the block needs them (stop-and-
+        wait: a part lost is sent again before the next); the CONFIG's reply."""
+        for name, fields in config_requests(estimator_id, mode, params):
+            reply = self.request(name, **fields)
+        return reply
 
     def set_baud(self, baud: int) -> None:
         """Switches board and host to a new baud rate (the board ACKs at the old one)."""

@@ -50,7 +50,7 @@ def test_ten_thousand_pings_of_random_sizes_are_all_echoed(link) -> None:
 
 def test_config_with_a_bad_estimator_id_is_an_error_and_the_link_goes_on(link) -> None:
     with pytest.raises(BoardError, match="UNKNOWN_ESTIMATOR"):
-        link.request("CONFIG", estimator=250, mode=SCHEMA.mode["F32"], params=b"")
+        link.request("CONFIG", estimator=250, mode=SCHEMA.mode["F32"], offset=0, params=b"")
     assert link.request("PING", payload=b"still here").fields()["payload"] == b"still here"
 
 

@@ -20,4 +20,5 @@ def test_the_seed_corpus_holds_a_conversation_for_every_estimator_and_mode(tmp_p
 
     n = fuzz.seed_corpus(tmp_path)
     expected = sum(len(s.modes) for s in estimators.estimators().values())
-    assert n == 6 + expected
+    assert n == 7 + expected  # and a CONFIG in parts
+    assert (tmp_path / "config-parts").read_bytes().count(b"\x00") > 3  # several frames

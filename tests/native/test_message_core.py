@@ -49,13 +49,13 @@ def test_hello_with_another_protocol_version_is_refused_naming_the_boards(link) 
 
 def test_config_with_an_unknown_estimator_id_is_an_error(link) -> None:
     with pytest.raises(BoardError, match="UNKNOWN_ESTIMATOR.*id 200") as exc:
-        link.request("CONFIG", estimator=200, mode=0, params=b"")
+        link.request("CONFIG", estimator=200, mode=0, offset=0, params=b"")
     assert exc.value.code == "UNKNOWN_ESTIMATOR" and exc.value.detail == 200
 
 
 def test_config_with_an_unknown_mode_is_an_error(link) -> None:
     with pytest.raises(BoardError, match="UNSUPPORTED_MODE"):
-        link.request("CONFIG", estimator=0, mode=9, params=b"")
+        link.request("CONFIG", estimator=0, mode=9, offset=0, params=b"")
 
 
 def test_sample_before_config_is_refused(link) -> None:
@@ -140,3 +140,67 @@ def test_a_reply_to_another_request_with_the_same_seq_is_not_taken_as_the_reply(
     assert link.request("PING", payload=b"mine").fields()["payload"] == b"mine"
     # The STATS reply's CRC covers GET_STATS, not PING: it fails as the PING's answer.
     assert link.decoder.bad_frames == 1 and "CRC" in link.decoder.last_error
+
+
+def _rls_parts(link, max_body: int) -> list[tuple[str, dict]]:  # noqa: ANN001
+    """RLS's CONFIG as frames of at most max_body bytes: its block in parts."""
+    from vehil.estimators import stlqf
+    from vehil.link import config_requests
+
+    params = stlqf.RLS.encode_params(stlqf.RLS.param_values({}), "F32")
+    return config_requests(stlqf.RLS.c_id, SCHEMA.mode["F32"], params, max_body=max_body)
+
+
+def _send(link, requests: list[tuple[str, dict]]) -> None:  # noqa: ANN001
+    for name, fields in requests:
+        link.request(name, **fields)
+
+
+def _steps(link, inputs: list[bytes]) -> list[tuple[int, bytes]]:  # noqa: ANN001
+    """Status and outputs of each sample (the native board's cycles are the host's clock)."""
+    link.sample_index = 0
+    replies = [r.fields() for r in link.pipeline(("SAMPLE", {"inputs": x}) for x in inputs)]
+    return [(f["status"], f["outputs"]) for f in replies]
+
+
+def test_a_config_in_parts_runs_as_the_same_config_in_one_frame(link) -> None:
+    inputs = _rls(link)
+    whole = _steps(link, inputs)
+    parts = _rls_parts(link, max_body=12)  # 8 parameter bytes a frame
+    assert [name for name, _ in parts].count("CONFIG_PART") >= 2
+    _send(link, parts)
+    _send(link, parts[-1:])  # a CONFIG sent again (its ACK lost) applies the same block
+    assert _steps(link, inputs) == whole
+    with pytest.raises(BoardError, match="OUT_OF_ORDER.*holds 0 parameter bytes"):
+        _send(link, parts[-1:])  # a step has reused the parts' memory: not applied again
+
+
+def test_a_config_part_ends_the_configuration_in_force(link) -> None:
+    inputs = _rls(link)
+    _send(link, _rls_parts(link, max_body=12)[:1])
+    with pytest.raises(BoardError, match="NOT_CONFIGURED"):
+        link.request("SAMPLE", index=0, inputs=inputs[0])
+
+
+def test_parts_out_of_order_or_too_many_are_refused_and_nothing_is_applied(link) -> None:
+    inputs = _rls(link)
+    parts = _rls_parts(link, max_body=12)
+    _send(link, parts[:1])
+    with pytest.raises(BoardError, match="OUT_OF_ORDER") as exc:
+        _send(link, parts[2:3])  # the second part skipped
+    assert exc.value.detail == 8
+    with pytest.raises(BoardError, match="OUT_OF_ORDER"):
+        _send(link, parts[-1:])  # the CONFIG cannot complete a block with a gap
+    with pytest.raises(BoardError, match="NOT_CONFIGURED"):
+        link.request("SAMPLE", index=0, inputs=inputs[0])
+    name, last = parts[-1]
+    with pytest.raises(BoardError, match="BAD_LENGTH"):  # a block one value short
+        _send(link, [*parts[:-1], (name, {**last, "params": last["params"][4:]})])
+    with pytest.raises(BoardError, match="NOT_CONFIGURED"):
+        link.request("SAMPLE", index=0, inputs=inputs[0])
+    chunk = bytes(120)
+    _send(link, [("CONFIG_PART", {"offset": o, "params": chunk}) for o in range(0, 480, 120)])
+    with pytest.raises(BoardError, match="PARAMS_OVERSIZE.*at most 512") as exc:
+        link.request("CONFIG_PART", offset=480, params=chunk)
+    _send(link, parts)  # the board takes a good block after all that
+    assert len(_steps(link, inputs)) == 3

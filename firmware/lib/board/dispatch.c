@@ -64,27 +64,40 @@ static struct {
     msg_stats_t stats;
 } core;
 
+/* The most parameter bytes a CONFIG may carry when it comes in parts. */
+#define CONFIG_PARAMS_MAX 512u
+
+/* The RESULT cache, and a CONFIG's parameters while they come in parts: one memory, as
+ * the parts end the configuration in force and a step's result ends the parts. */
 static struct {
     uint16_t next; /* index of the SAMPLE to step next */
     uint8_t count; /* results kept, the newest in slot head - 1 */
     uint8_t head;
-    struct {
-        uint8_t len; /* 0: the body did not fit */
-        uint8_t body[RESULT_CACHE_BODY];
-    } slot[RESULT_CACHE];
+    uint16_t staged; /* parameter bytes held from CONFIG_PARTs; 0 once a step writes here */
+    union {
+        struct {
+            uint8_t len; /* 0: the body did not fit */
+            uint8_t body[RESULT_CACHE_BODY];
+        } slot[RESULT_CACHE];
+        uint8_t params[CONFIG_PARAMS_MAX];
+    } u;
 } results;
+
+VEHIL_STATIC_ASSERT(CONFIG_PARAMS_MAX <= sizeof results.u.slot,
+                    "the staged parameters would make the RESULT cache larger");
 
 static void results_clear(void) { results.next = results.count = results.head = 0; }
 
 /* Where the next step writes its RESULT body: its cache slot if it fits there. */
 static uint8_t *results_slot(uint16_t body_max)
 {
-    return body_max <= RESULT_CACHE_BODY ? results.slot[results.head].body : core.body;
+    results.staged = 0;
+    return body_max <= RESULT_CACHE_BODY ? results.u.slot[results.head].body : core.body;
 }
 
 static void results_keep(const uint8_t *body, uint8_t body_len)
 {
-    results.slot[results.head].len = body == results.slot[results.head].body ? body_len : 0u;
+    results.u.slot[results.head].len = body == results.u.slot[results.head].body ? body_len : 0u;
     results.head = (uint8_t)((results.head + 1u) % RESULT_CACHE);
     if (results.count < RESULT_CACHE) {
         results.count++;
@@ -99,8 +112,8 @@ static const uint8_t *results_find(uint16_t behind, uint8_t *len)
         return NULL;
     }
     uint8_t i = (uint8_t)((results.head + RESULT_CACHE - behind) % RESULT_CACHE);
-    *len = results.slot[i].len;
-    return *len != 0u ? results.slot[i].body : NULL;
+    *len = results.u.slot[i].len;
+    return *len != 0u ? results.u.slot[i].body : NULL;
 }
 
 /* A reply, encoded with its CRC straight into the TX buffer: head, then body. */
@@ -193,6 +206,39 @@ static void on_ping(const request_t *r)
     send2(r, MSG_PONG, stamp, sizeof stamp, r->body, r->body_len); /* the echo from the request */
 }
 
+/* Copies the parameter bytes a CONFIG(_PART) carries to `offset` of the staging area,
+ * if they follow what it holds and fit; 0 when refused (and answered). */
+static uint8_t take_params(const request_t *r, uint16_t offset, uint8_t head)
+{
+    uint8_t len = (uint8_t)(r->body_len - head);
+    if (offset > results.staged) {
+        send_error(r, ERR_OUT_OF_ORDER, results.staged);
+        return 0;
+    }
+    if ((uint32_t)offset + len > CONFIG_PARAMS_MAX) {
+        send_error(r, ERR_PARAMS_OVERSIZE, CONFIG_PARAMS_MAX);
+        return 0;
+    }
+    memcpy(results.u.params + offset, r->body + head, len);
+    return 1;
+}
+
+static void on_config_part(const request_t *r)
+{
+    if (r->body_len < MSG_CONFIG_PART_FIXED_SIZE) {
+        send_error(r, ERR_BAD_LENGTH, MSG_CONFIG_PART_FIXED_SIZE);
+        return;
+    }
+    msg_config_part_t part;
+    msg_config_part_unpack(r->body, &part);
+    core.estimator = NULL; /* a new configuration begins: the old one ends */
+    results_clear();       /* its slots are about to hold the parameters */
+    if (take_params(r, part.offset, MSG_CONFIG_PART_FIXED_SIZE)) {
+        results.staged = (uint16_t)(part.offset + r->body_len - MSG_CONFIG_PART_FIXED_SIZE);
+        send_ack(r);
+    }
+}
+
 static void on_config(const request_t *r)
 {
     if (r->body_len < MSG_CONFIG_FIXED_SIZE) {
@@ -211,12 +257,19 @@ static void on_config(const request_t *r)
         return;
     }
     uint16_t params_len = (uint16_t)(est->n_params * ESTIMATOR_VALUE_SIZE);
-    if (r->body_len != MSG_CONFIG_FIXED_SIZE + params_len) {
-        send_error(r, ERR_BAD_LENGTH, (uint16_t)(MSG_CONFIG_FIXED_SIZE + params_len));
+    if (cfg.offset > params_len || r->body_len != MSG_CONFIG_FIXED_SIZE + params_len - cfg.offset) {
+        send_error(r, ERR_BAD_LENGTH, (uint16_t)(MSG_CONFIG_FIXED_SIZE + params_len - cfg.offset));
         return;
     }
+    const uint8_t *params = r->body + MSG_CONFIG_FIXED_SIZE;
+    if (cfg.offset > 0u) { /* the block's head came in CONFIG_PARTs: its tail joins it */
+        if (!take_params(r, cfg.offset, MSG_CONFIG_FIXED_SIZE)) {
+            return;
+        }
+        params = results.u.params;
+    }
     core.estimator = NULL; /* a refused CONFIG leaves nothing half-configured */
-    uint8_t bad = est->configure(estimator_state(), cfg.mode, r->body + MSG_CONFIG_FIXED_SIZE);
+    uint8_t bad = est->configure(estimator_state(), cfg.mode, params);
     if (bad != 0) {
         send_error(r, ERR_BAD_PARAM, (uint16_t)(bad - 1u));
         return;
@@ -224,7 +277,7 @@ static void on_config(const request_t *r)
     core.loaded = desc;
     core.estimator = &core.loaded;
     core.mode = cfg.mode;
-    results_clear();
+    results_clear(); /* the staged bytes stay until a step: a CONFIG sent again applies alike */
     send_ack(r);
 }
 
@@ -372,6 +425,7 @@ static void handle(const request_t *r)
     case MSG_HELLO: on_hello(r); break;
     case MSG_PING: on_ping(r); break;
     case MSG_CONFIG: on_config(r); break;
+    case MSG_CONFIG_PART: on_config_part(r); break;
     case MSG_RESET: on_reset(r); break;
     case MSG_SAMPLE: on_sample(r); break;
     case MSG_GET_STATS: on_get_stats(r); break;

@@ -5,8 +5,8 @@
 
 #include "proto/wire.h"
 
-#define VEHIL_PROTOCOL_VERSION 4u
-#define VEHIL_SCHEMA_HASH 0xC9FA3508ul
+#define VEHIL_PROTOCOL_VERSION 5u
+#define VEHIL_SCHEMA_HASH 0xCD513A52ul
 #define VEHIL_MAX_BODY 128u
 
 /* Message types */
@@ -18,6 +18,7 @@
 #define MSG_GET_STATS 0x06u
 #define MSG_SET_BAUD 0x07u
 #define MSG_GET_ESTIMATOR 0x08u
+#define MSG_CONFIG_PART 0x09u
 #define MSG_INFO 0x81u
 #define MSG_PONG 0x82u
 #define MSG_ACK 0x83u
@@ -38,6 +39,7 @@
 #define ERR_OVERSIZE 0x09u
 #define ERR_OVERRUN 0x0Au
 #define ERR_OUT_OF_ORDER 0x0Bu
+#define ERR_PARAMS_OVERSIZE 0x0Cu
 
 /* Numeric modes */
 #define MODE_F32 0x00u
@@ -82,21 +84,27 @@ static inline void msg_hello_unpack(const uint8_t *body, msg_hello_t *m)
 /* PING: Echo request; answered by PONG with the same payload. */
 #define MSG_PING_FIXED_SIZE 0u
 
-/* CONFIG: Select an estimator and numeric mode; parameters in the mode's format. */
-#define MSG_CONFIG_FIXED_SIZE 2u
+/* CONFIG: Select an estimator and numeric mode; parameters in the mode's format. `offset`
+is where `params` starts in the estimator's parameter block: 0 for a block that fits
+this frame, else the bytes the CONFIG_PARTs before it carried (refused with
+OUT_OF_ORDER if the board holds fewer). A CONFIG applies the whole block or nothing. */
+#define MSG_CONFIG_FIXED_SIZE 4u
 typedef struct {
     uint8_t estimator;
     uint8_t mode;
+    uint16_t offset;
 } msg_config_t;
 static inline void msg_config_pack(const msg_config_t *m, uint8_t *body)
 {
     put_u8(body + 0, m->estimator);
     put_u8(body + 1, m->mode);
+    put_u16(body + 2, m->offset);
 }
 static inline void msg_config_unpack(const uint8_t *body, msg_config_t *m)
 {
     m->estimator = get_u8(body + 0);
     m->mode = get_u8(body + 1);
+    m->offset = get_u16(body + 2);
 }
 
 /* RESET: Reset the estimator's state, reboot the board, or hang it for the watchdog (see [reset_what]). */
@@ -159,6 +167,23 @@ static inline void msg_get_estimator_pack(const msg_get_estimator_t *m, uint8_t 
 static inline void msg_get_estimator_unpack(const uint8_t *body, msg_get_estimator_t *m)
 {
     m->index = get_u8(body + 0);
+}
+
+/* CONFIG_PART: Parameters of a CONFIG too long for one frame: bytes `offset`.. of the block, in
+order (an offset past the bytes held is refused with OUT_OF_ORDER; 0 starts over, a
+repeat is harmless). The first part ends the configuration in force; the CONFIG that
+carries the block's last bytes applies it. */
+#define MSG_CONFIG_PART_FIXED_SIZE 2u
+typedef struct {
+    uint16_t offset;
+} msg_config_part_t;
+static inline void msg_config_part_pack(const msg_config_part_t *m, uint8_t *body)
+{
+    put_u16(body + 0, m->offset);
+}
+static inline void msg_config_part_unpack(const uint8_t *body, msg_config_part_t *m)
+{
+    m->offset = get_u16(body + 0);
 }
 
 /* INFO: Board identity; also sent unsolicited (seq 0) once the firmware is ready after a reset. */

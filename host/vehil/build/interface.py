@@ -74,12 +74,7 @@ def _check_ranges(link: Link, spec: EstimatorSpec, board: EstimatorInfo) -> list
     defaults = spec.param_values({})
     for mode in spec.modes:
         try:
-            link.request(
-                "CONFIG",
-                estimator=board.id,
-                mode=SCHEMA.mode[mode],
-                params=spec.encode_params(defaults, mode),
-            )
+            link.config(board.id, SCHEMA.mode[mode], spec.encode_params(defaults, mode))
         except BoardError as exc:
             return [f"{spec.name} ({mode}): the C refuses the spec's defaults: {exc}"]
         for i, p in enumerate(spec.params):
@@ -92,7 +87,7 @@ def _check_ranges(link: Link, spec: EstimatorSpec, board: EstimatorInfo) -> list
                 accepted = in_range and not rules
                 body = _encode(spec, values, i, code)
                 try:
-                    link.request("CONFIG", estimator=board.id, mode=SCHEMA.mode[mode], params=body)
+                    link.config(board.id, SCHEMA.mode[mode], body)
                     refused = None
                 except BoardError as exc:
                     if exc.code != "BAD_PARAM":
