@@ -52,7 +52,8 @@ def test_a_descriptor_that_drifted_is_named(link) -> None:
     assert (
         "manf: the C descriptor (id 20) has modes = ('F32', 'FIXED'), the spec ('F32',)" in problems
     )
-    assert "manf: the C descriptor (id 20) has n_params = 9, the spec 8" in problems
+    n = len(spec.params)
+    assert f"manf: the C descriptor (id 20) has n_params = {n}, the spec {n - 1}" in problems
 
 
 def test_a_rule_the_spec_lacks_is_named(link) -> None:
