@@ -23,14 +23,15 @@ from vehil.paths import DATA_ROOT
 
 pytestmark = pytest.mark.hil
 
-# What the wheel is built from: the tree less its build products and caches.
-_TOP_NOT_SOURCES = {".git", ".venv", ".vehil", "build", ".pio", "runs"}
-_ANYWHERE = shutil.ignore_patterns("*.egg-info", "__pycache__", ".*_cache")
+# What the wheel is built from: the tree less its build products, caches and hidden
+# folders (.git, .venv, .pio, .hypothesis..., which other tests may be writing).
+_TOP_NOT_SOURCES = shutil.ignore_patterns(".*", "build", "runs")
+_ANYWHERE = shutil.ignore_patterns("*.egg-info", "__pycache__")
 
 
 def _not_sources(folder: str, names: list[str]) -> set[str]:
-    top = _TOP_NOT_SOURCES if Path(folder) == DATA_ROOT else set()
-    return top | set(_ANYWHERE(folder, names))
+    top = _TOP_NOT_SOURCES(folder, names) if Path(folder) == DATA_ROOT else set()
+    return set(top) | set(_ANYWHERE(folder, names))
 
 
 def _run(argv: list[str], cwd: Path, env: dict[str, str]) -> str:
