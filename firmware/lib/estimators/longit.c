@@ -62,30 +62,6 @@ void longit_configure_q(longit_q_t *l, const uint8_t *params, uint8_t first)
 
 void longit_reset(longit_t *l) { l->started = 0; }
 
-uint8_t longit_bit_length(uint32_t x)
-{
-    /* Whole words and bytes by moves, then the top byte one bit at a time as a byte: the
-     * AVR shifts an int32 a bit at a time. */
-    uint8_t n = 32;
-    if (x >> 16 == 0u) {
-        x <<= 16;
-        n = 16;
-    }
-    if (x >> 24 == 0u) {
-        x <<= 8;
-        n = (uint8_t)(n - 8u);
-    }
-    uint8_t top = (uint8_t)(x >> 24);
-    if (top == 0u) {
-        return 0;
-    }
-    while (top < 0x80u) {
-        top = (uint8_t)(top << 1);
-        n--;
-    }
-    return n;
-}
-
 /* One sample through the prefilter (transposed direct form II), settled at the first. */
 static void prefilter(longit_t *l, float *x)
 {

@@ -56,8 +56,31 @@ void longit_configure(longit_t *l, const uint8_t *params, uint8_t first, uint8_t
 /* The shared parameters, starting at index `first`, as FIXED's constants. */
 void longit_configure_q(longit_q_t *l, const uint8_t *params, uint8_t first);
 
-/* The number of bits of x (0 for 0): FIXED's block exponents in STLQF and RLS. */
-uint8_t longit_bit_length(uint32_t x);
+/* The number of bits of x (0 for 0): FIXED's block exponents in STLQF and RLS; inline, as
+ * both call it in their steps' hot paths. */
+static inline uint8_t longit_bit_length(uint32_t x)
+{
+    /* Whole words and bytes by moves, then the top byte one bit at a time as a byte: the
+     * AVR shifts an int32 a bit at a time. */
+    uint8_t n = 32;
+    if (x >> 16 == 0u) {
+        x <<= 16;
+        n = 16;
+    }
+    if (x >> 24 == 0u) {
+        x <<= 8;
+        n = (uint8_t)(n - 8u);
+    }
+    uint8_t top = (uint8_t)(x >> 24);
+    if (top == 0u) {
+        return 0;
+    }
+    while (top < 0x80u) {
+        top = (uint8_t)(top << 1);
+        n--;
+    }
+    return n;
+}
 
 /* The prefilter back to its start (it settles on the next sample). */
 void longit_reset(longit_t *l);

@@ -223,6 +223,7 @@ static void configure_q(rls_state_t *s, const uint8_t *params)
         }
     }
     s->u.q.lambda = lambda;
+    s->u.q.g_cos = fx_ufactor((uint32_t)s->u.q.shared.g_cos, 30);
 }
 
 static uint8_t rls_configure(void *state, uint8_t mode, const uint8_t *params)
@@ -344,13 +345,14 @@ __attribute__((noinline)) static void correct(rls_state_t *s, const int32_t *t, 
 {
     int32_t *theta = s->u.q.theta, *P = s->u.q.P;
     const int8_t *e = s->u.q.e;
-    /* θ += 2^(e - k) t err (t Q27, err Q12): one product, rounded once at θ's Q. */
-    for (uint8_t i = 0; i < 3u; i++) {
-        int16_t n = (int16_t)(27 + ERR_Q - theta_q[i] - e[i] + k);
-        theta[i] = fx_add(theta[i], mul_shr(t[i], err, n, st), st);
-    }
-    /* P̃ - w̃ w̃ᵀ / s = P̃ - t ŵᵀ 2^(2 gw - g), whose entries are at most sqrt(P̃_ii P̃_jj) < 1. */
-    /* written out in P's packed order (the lower triangle row by row): the AVR then reaches
+    /* θ += 2^(e - k) t err (t Q27, err Q12): one product, rounded once at θ's Q; written
+     * out, as P̃'s update below */
+    int16_t n = (int16_t)(27 + ERR_Q + k);
+    theta[0] = fx_add(theta[0], mul_shr(t[0], err, (int16_t)(n - theta_q[0] - e[0]), st), st);
+    theta[1] = fx_add(theta[1], mul_shr(t[1], err, (int16_t)(n - theta_q[1] - e[1]), st), st);
+    theta[2] = fx_add(theta[2], mul_shr(t[2], err, (int16_t)(n - theta_q[2] - e[2]), st), st);
+    /* P̃ - w̃ w̃ᵀ / s = P̃ - t ŵᵀ 2^(2 gw - g), whose entries are at most sqrt(P̃_ii P̃_jj) < 1,
+     * written out in P's packed order (the lower triangle row by row): the AVR then reaches
      * every operand at a constant offset */
     P[0] = fx_sub(P[0], mul_shr(t[0], w[0], n_p, st), st);
     P[1] = fx_sub(P[1], mul_shr(t[1], w[0], n_p, st), st);
@@ -374,7 +376,8 @@ __attribute__((noinline)) static void update_q(rls_state_t *s, const int32_t *x,
     int32_t err = fx_rescale(x[2], 14, ERR_Q, &st);
     err = fx_sub(err, fx_mul_shr(u[0], theta[0], 24 + 16 - ERR_Q, &st), &st);
     err = fx_sub(err, fx_mul_shr(u[1], theta[1], 18 + 20 - ERR_Q, &st), &st);
-    err = fx_sub(err, fx_mul_shr(u[2], theta[2], 26 + 16 - ERR_Q, &st), &st);
+    /* g / cos ε to 16 bits: θ3 absorbs its 2^-17 (the grade within 8e-6 of itself) */
+    err = fx_sub(err, fx_smul_f(theta[2], s->u.q.g_cos), &st);
 
     /* top: the largest bit length of |ψ_j| 2^e_j; g/cos ε (g in [9, 10.5]) has 30 in Q26 */
     int16_t top = (int16_t)(30 - 26 + e[2]);

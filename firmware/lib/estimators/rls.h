@@ -25,6 +25,7 @@
 
 #include "estimators/estimator.h"
 #include "estimators/longit.h"
+#include "fixmath/fixmath.h"
 
 #define RLS_ID 31u
 
@@ -45,6 +46,7 @@ typedef struct {
             int32_t held[3];           /* held_max P(0)_ii / λ as P̃ (Q30) */
             int8_t e_p0[3], e_cap[3], e_held[3]; /* with these exponents */
             int32_t lambda, l;         /* λ and l, Q30: l in [1/4, 1] */
+            fx_ufactor_t g_cos;        /* g / cos ε to 16 bits for the innovation (Q26 / 2^30) */
             longit_q_t shared;
         } q;
     } u;

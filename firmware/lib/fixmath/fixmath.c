@@ -487,8 +487,9 @@ static int32_t asin_series_q30(int32_t x, uint8_t *status)
     static const uint16_t c[] = {10923, 4915, 2926, 1991, 1466}; /* 1/6 ... 63/2816 */
     int16_t h = (int16_t)((uint32_t)x << 1 >> 16);               /* x >> 15: Q15, <= 2^14 */
     uint16_t x2 = (uint16_t)(((uint32_t)((int32_t)h * h) << 2) >> 16); /* Q16, within 2^-16 */
-    uint16_t p = c[4];
-    for (int8_t i = 3; i >= 0; i--) {
+    uint8_t i = x2 < 1024u ? 2u : 4u; /* |x| < 1/8: the x^9 and x^11 terms add < 2e-8 rad */
+    uint16_t p = c[i];
+    while (i-- > 0u) {
         p = (uint16_t)(c[i] + (uint16_t)(((uint32_t)p * x2) >> 16));
     }
     int16_t corr = (int16_t)(((uint32_t)p * x2) >> 16);
