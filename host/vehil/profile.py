@@ -204,12 +204,17 @@ def sweep(
 
 
 def _scenario_for(name: str, mode: str) -> scenario.Scenario | None:
+    """The estimator's budget scenario (else its first shipped one), run in `mode`."""
     import dataclasses
 
-    for path in scenario.shipped():
+    chosen = estimators.get(name).budget_scenario
+    paths = [chosen] if chosen else scenario.shipped()
+    for path in paths:
         try:
             sc = scenario.load(path)
         except VehilError:
+            if chosen:
+                raise
             continue
         if sc.estimator.name == name:
             return sc if sc.mode == mode else dataclasses.replace(sc, mode=mode)

@@ -34,3 +34,11 @@ def test_compare_names_what_got_slower_and_only_that() -> None:
     assert len(slower) == 2
     assert "115200 baud, 16 B: 4.000 -> 5.000 ms (+25 %)" in slower[0]
     assert "kf F32: median 1000 -> 1500 cycles (+50 %)" in slower[1]
+
+
+def test_every_budget_scenario_is_a_shipped_drive_of_its_estimator() -> None:
+    from vehil import estimators, scenario
+
+    for name, spec in estimators.estimators().items():
+        if spec.budget_scenario:
+            assert scenario.load(spec.budget_scenario).estimator.name == name

@@ -337,6 +337,7 @@ SPEC = register(
     EstimatorSpec(
         name="acc_kf",
         budget={"FIXED": 4_000},
+        budget_scenario="mixed",  # both corrections
         c_id=10,
         title="ACC reference speed: Kalman filter with bias feed-forward and slip correction",
         inputs=(

@@ -72,6 +72,9 @@ class EstimatorSpec:
     # Cycles per step the estimator must keep on the ATmega2560, by mode: the median over
     # its scenario, stop-and-wait (`vehil profile --budgets` checks them).
     budget: Mapping[str, int] = field(default_factory=dict)
+    # The shipped scenario its cycles are measured on: the costliest case it ships (every
+    # option on); "" for the first shipped one that runs it.
+    budget_scenario: str = ""
     # Checks beyond each parameter's range, the C's as well (vehil build probes both).
     rules: tuple[Rule, ...] = ()
 
