@@ -54,23 +54,27 @@ int32_t fx_sat(int64_t x, uint8_t *status);
  * overflow flag (avr-gcc 5.4 turns __builtin_add_overflow into ~60 cycles of compares);
  * the host's C below gives the same result. On overflow the wrapped result has the
  * wrong sign, so its sign fill with the top bit flipped is the bound: INT32_MAX for a
- * wrapped negative, INT32_MIN for a wrapped positive. */
+ * wrapped negative, INT32_MIN for a wrapped positive. Only instructions that take any
+ * register (the flip through T: bst, bld), so GCC need not move the operands into r16-r31. */
 #if defined(__AVR__)
 #define FX_AVR_SATURATE                                                                        \
     "brvc 1f\n\t"                                                                              \
-    "ldi %1, 1\n\t"                                                                            \
+    "inc %1\n\t"                                                                               \
     "lsl %D0\n\t"                                                                              \
     "sbc %A0, %A0\n\t"                                                                         \
     "mov %B0, %A0\n\t"                                                                         \
     "movw %C0, %A0\n\t"                                                                        \
-    "subi %D0, 0x80\n"                                                                          \
+    "com %D0\n\t"                                                                              \
+    "bst %D0, 7\n\t"                                                                           \
+    "mov %D0, %A0\n\t"                                                                         \
+    "bld %D0, 7\n"                                                                              \
     "1:"
 
 FX_INLINE int32_t fx_add(int32_t a, int32_t b, uint8_t *status)
 {
     uint8_t sat = 0;
     __asm__("add %A0, %A2\n\tadc %B0, %B2\n\tadc %C0, %C2\n\tadc %D0, %D2\n\t" FX_AVR_SATURATE
-            : "+d"(a), "+d"(sat)
+            : "+r"(a), "+r"(sat)
             : "r"(b));
     if (sat) {
         *status |= STATUS_SATURATED;
@@ -82,7 +86,7 @@ FX_INLINE int32_t fx_sub(int32_t a, int32_t b, uint8_t *status)
 {
     uint8_t sat = 0;
     __asm__("sub %A0, %A2\n\tsbc %B0, %B2\n\tsbc %C0, %C2\n\tsbc %D0, %D2\n\t" FX_AVR_SATURATE
-            : "+d"(a), "+d"(sat)
+            : "+r"(a), "+r"(sat)
             : "r"(b));
     if (sat) {
         *status |= STATUS_SATURATED;
