@@ -6,6 +6,9 @@ estimator NAME in it: specs/NAME.py (the spec and its float64 reference), c/NAME
 c/NAME.c (float32 and fixed point), a scenario per mode and a pytest test that runs them
 on the native board, simavr and QEMU. The estimator is a first-order low-pass,
 x += k (y - x), on the noisy_sine plant: small enough to read in a minute and to replace.
+With --wrap HEADER, the estimator wraps a library vendored in third_party/: its manifest
+if it has none, and a C or C++ wrapper holding the library's type in an opaque,
+size-checked slot (docs/extending.md, "A library you did not write"); float32 only.
 """
 
 from __future__ import annotations
