@@ -56,10 +56,6 @@ void port_tx_close(uint8_t code)
 }
 
 void port_rx_release(uint8_t n) { (void)n; } /* the bytes are the caller's */
-uint8_t port_irq_off(void) { return 0; } /* no interrupts, nothing to poll */
-uint8_t port_irq_on(void) { return 0; }
-void port_irq_restore(uint8_t state) { (void)state; }
-void port_poll(void) {}
 void port_flush(void) {}
 uint16_t port_rx_buffer(void) { return NATIVE_RX_BUFFER; }
 uint16_t port_rx_overruns(void) { return 0; }

@@ -3,9 +3,9 @@
 #include <avr/interrupt.h>
 #include <avr/io.h>
 
-volatile uint16_t cycles_overflows; /* also counted by uart_rx_wait, interrupts off */
+static volatile uint16_t overflows;
 
-ISR(TIMER1_OVF_vect) { cycles_overflows++; }
+ISR(TIMER1_OVF_vect) { overflows++; }
 
 void cycles_init(void)
 {
@@ -21,14 +21,11 @@ uint32_t cycles_now(void)
     uint8_t sreg = SREG;
     cli();
     uint16_t low = TCNT1;
-    /* An overflow not yet counted (its interrupt pending while interrupts are off) is
-     * counted here, and the count read again after it. */
-    if (TIFR1 & _BV(TOV1)) {
-        TIFR1 = _BV(TOV1); /* writing 1 clears it */
-        cycles_overflows++;
-        low = TCNT1;
+    uint16_t high = overflows;
+    /* An overflow pending but not yet serviced belongs to a low count just after it. */
+    if ((TIFR1 & _BV(TOV1)) && low < 0x8000u) {
+        high++;
     }
-    uint16_t high = cycles_overflows;
     SREG = sreg;
     return ((uint32_t)high << 16) | low;
 }

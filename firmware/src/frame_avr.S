@@ -15,14 +15,8 @@
 ; block: its code goes into the placeholder (uart_tx_held) and the zero's place is
 ; the next block's placeholder, held back with the rest until uart_tx_close()
 ; releases the frame. No block reaches 254 bytes: frames are shorter (frame.c).
-;
-; Both move the UART's bytes themselves once a byte, interrupts off (UART_POLL,
-; uart_poll.h, with r1 as its scratch: cleared again on the way out); frame_tx_run only
-; while earlier bytes are still going out.
 
 #include <avr/io.h>
-
-#include "uart_poll.h"
 
 #define N       r18
 #define CODE    r19
@@ -55,9 +49,6 @@
         .section .text.frame_rx_run, "ax", @progbits
         .global frame_rx_run
 frame_rx_run:
-        in      BYTE, _SFR_IO_ADDR(SREG)
-        push    BYTE
-        cli
         push    r28
         push    r29
         movw    r26, r20                ; X: the received bytes
@@ -69,17 +60,14 @@ frame_rx_run:
         ldd     CRC3, Z+3
         mov     r19, r18                ; r19: bytes left of k
         tst     r19
-        brne    1f
-        rjmp    2f
+        breq    2f
 1:      ld      BYTE, X+
         tst     BYTE
         breq    2f                      ; a zero: the block ends before it
         CRC32C_BYTE
         st      Y+, BYTE
-        UART_POLL r1
         dec     r19
-        breq    2f
-        rjmp    1b
+        brne    1b
 2:      movw    r30, r24
         st      Z, CRC0
         std     Z+1, CRC1
@@ -89,16 +77,11 @@ frame_rx_run:
         mov     r24, r18
         pop     r29
         pop     r28
-        pop     BYTE
-        clr     r1
-        out     _SFR_IO_ADDR(SREG), BYTE
         ret
 
         .section .text.frame_tx_run, "ax", @progbits
         .global frame_tx_run
 frame_tx_run:
-        in      BYTE, _SFR_IO_ADDR(SREG)
-        push    BYTE
         movw    r26, r20                ; X: the data
         mov     CODE, r22
         movw    r30, r24
@@ -109,25 +92,11 @@ frame_tx_run:
         ldd     CRC2, Z+2
         ldd     CRC3, Z+3
         lds     W, uart_tx_write
-        ; While released bytes wait to go out (streaming), the loop moves the UART's
-        ; bytes itself (T set, interrupts off); with none (stop-and-wait), the polls
-        ; would find nothing to do: interrupts on instead (T clear).
-        lds     r30, uart_tx_tail
-        lds     r31, uart_tx_head
-        set
-        cli
-        cpse    r30, r31
-        rjmp    1f
-        clt
-        sei
-1:      rcall   room
+        rcall   room
         tst     N
-        brne    next
-        rjmp    done
+        breq    done
 
-next:   brtc    1f
-        UART_POLL r1
-1:      ld      BYTE, X+
+next:   ld      BYTE, X+
         CRC32C_BYTE
         ; COBS
         subi    ROOM, 1
@@ -135,14 +104,12 @@ next:   brtc    1f
 store:  mov     r30, W
         ldi     r31, hi8(uart_tx_buf)   ; on a 256-byte boundary (uart.c)
         tst     BYTE
-        brne    1f
-        rjmp    zero                    ; the block ends: its code stands for this zero
-1:      st      Z, BYTE
+        breq    zero                    ; the block ends: its code stands for this zero
+        st      Z, BYTE
         inc     W
         inc     CODE
 count:  dec     N
-        breq    done
-        rjmp    next
+        brne    next
 
 done:   sts     uart_tx_write, W
         pop     r31
@@ -152,15 +119,10 @@ done:   sts     uart_tx_write, W
         std     Z+2, CRC2
         std     Z+3, CRC3
         mov     r24, CODE
-        pop     BYTE
-        clr     r1
-        out     _SFR_IO_ADDR(SREG), BYTE
         ret
 
-; The ring is full: wait for the UART to take what was released.
-wait:   brtc    1f
-        UART_POLL r1
-1:      rcall   room
+; The ring is full: wait for the UDRE interrupt to drain what was released.
+wait:   rcall   room
         subi    ROOM, 1
         brcs    wait
         rjmp    store

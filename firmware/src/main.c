@@ -12,8 +12,7 @@ int main(void)
 {
     port_avr_init();
     wdt_enable(WDTO_1S); /* a hung step or loop reboots the board; INFO says so */
-    /* The main loop moves the UART's bytes itself, interrupts off; a step, and requests
-     * that may take long, turn them on (board/dispatch.c). */
+    sei();
     dispatch_init();
     for (;;) {
         uint8_t n;

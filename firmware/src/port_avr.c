@@ -69,23 +69,6 @@ uint32_t port_cycles(void) { return cycles_now(); }
 uint32_t port_cycles_per_second(void) { return F_CPU; }
 
 void port_rx_release(uint8_t n) { uart_rx_release(n); }
-
-uint8_t port_irq_off(void)
-{
-    uint8_t sreg = SREG;
-    cli();
-    return sreg;
-}
-
-uint8_t port_irq_on(void)
-{
-    uint8_t sreg = SREG;
-    sei();
-    return sreg;
-}
-
-void port_irq_restore(uint8_t state) { SREG = state; }
-void port_poll(void) { uart_poll(); }
 void port_tx_open(void) { uart_tx_open(); }
 void port_tx_close(uint8_t code) { uart_tx_close(code); }
 

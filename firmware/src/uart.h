@@ -3,8 +3,6 @@
 #ifndef VEHIL_UART_H
 #define VEHIL_UART_H
 
-#include <avr/interrupt.h>
-#include <avr/io.h>
 #include <stdint.h>
 
 #define UART_DEFAULT_BAUD 1000000UL
@@ -13,8 +11,7 @@
 
 void uart_init(uint32_t baud);
 /* Waits for received bytes, keeping the watchdog fed meanwhile; returns where they
- * lie in the RX ring and how many follow there without a wrap (uart_isr.S: it moves
- * the UART's bytes itself while it waits, interrupts off). */
+ * lie in the RX ring and how many follow there without a wrap. */
 const uint8_t *uart_rx_wait(uint8_t *n);
 /* Gives the ring back the first n of them. */
 void uart_rx_release(uint8_t n);
@@ -34,19 +31,11 @@ extern volatile uint8_t uart_tx_tail;
 extern uint8_t uart_tx_write;
 extern uint8_t uart_tx_held; /* the placeholder's slot (frame_tx_avr.S moves it too) */
 
-/* One look at the UART with interrupts off: a received byte into the RX ring, the next
- * released one out (UART_POLL in uart_poll.h; uart_isr.S). */
-void uart_poll(void);
-
 static inline void uart_tx_put(uint8_t byte)
 {
     uint8_t w = uart_tx_write;
     while ((uint8_t)(w + 1u) == uart_tx_tail) {
-        /* full: the UART drains what was released, by interrupt or polled here */
-        uint8_t sreg = SREG;
-        cli();
-        uart_poll();
-        SREG = sreg;
+        /* full: the UDRE interrupt drains what was released */
     }
     uart_tx_buf[w] = byte;
     uart_tx_write = (uint8_t)(w + 1u);

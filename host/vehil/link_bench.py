@@ -220,14 +220,14 @@ def report(f: dict[str, Any]) -> str:
     lines = []
     if "board_costs" in f:
         lines.append(
-            "board cycles per streamed PING exchange (bursts sent at once, their bytes arriving "
-            "at the line rate; by the board's clock):"
+            "board cycles per PING exchange (bursts at 2 Mbaud; RX interrupts counted per byte):"
         )
     for c in f.get("board_costs", []):
+        share = ", ".join(f"{int(b) // 1000} k {v * 100:.1f} %" for b, v in c["line_share"].items())
         lines.append(
-            f"  {c['baud']:>9,} baud, {c['size']:3d} B: {c['cycles']:7,.0f} cycles "
-            f"({c['arrived_cycles']:,.0f} with the requests already in): "
-            f"{c['line_share'] * 100:.1f} % of the 10-bit line rate"
+            f"  {c['size']:3d} B: {c['cycles']:7,.0f} cycles ({c['no_rx_cycles']:,.0f} without "
+            f"RX interrupts, {c['rx_isr_cycles']:,} RX, {c['tx_isr_cycles']:,} TX interrupts); "
+            f"most of the line rate: {share}"
         )
     if "streaming" in f:
         lines.append(

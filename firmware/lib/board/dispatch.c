@@ -39,22 +39,16 @@ static const request_t unsolicited = {0, UNSOLICITED_SEQ, NULL, 0};
 typedef struct {
     uint32_t start;
     uint16_t mark;
-    uint8_t irq;
 } stopwatch_t;
 
-/* A step is long: the UART's interrupts take its bytes meanwhile. They go on after the
- * start is read and off before the end is, so every interrupt that runs in between is
- * counted by the rings' indices (the probe measures the switch's own cost). */
 static inline void stopwatch_start(stopwatch_t *w)
 {
     w->start = port_cycles();
     w->mark = port_irq_mark();
-    w->irq = port_irq_on();
 }
 
 static inline uint32_t stopwatch_read(const stopwatch_t *w)
 {
-    port_irq_restore(w->irq);
     uint16_t irq = port_irq_cycles(w->mark);
     return port_cycles() - w->start - irq;
 }
@@ -425,31 +419,20 @@ static void on_get_estimator(const request_t *r)
     send(r, MSG_ESTIMATOR, (uint8_t)(MSG_ESTIMATOR_FIXED_SIZE + name_len));
 }
 
-/* PING and SAMPLE, the requests that stream, are answered with the UART polled (a
- * step turns its interrupts on); the others may take long (CONFIG, a stack scan, a
- * flush) and run with its interrupts on. */
 static void handle(const request_t *r)
 {
-    if (r->type == MSG_PING) {
-        on_ping(r);
-        return;
-    }
-    if (r->type == MSG_SAMPLE) {
-        on_sample(r);
-        return;
-    }
-    uint8_t irq = port_irq_on();
     switch (r->type) {
     case MSG_HELLO: on_hello(r); break;
+    case MSG_PING: on_ping(r); break;
     case MSG_CONFIG: on_config(r); break;
     case MSG_CONFIG_PART: on_config_part(r); break;
     case MSG_RESET: on_reset(r); break;
+    case MSG_SAMPLE: on_sample(r); break;
     case MSG_GET_STATS: on_get_stats(r); break;
     case MSG_SET_BAUD: on_set_baud(r); break;
     case MSG_GET_ESTIMATOR: on_get_estimator(r); break;
     default: send_error(r, ERR_UNKNOWN_TYPE, 0); break;
     }
-    port_irq_restore(irq);
 }
 
 static void end_of_frame(frame_status_t st)
@@ -490,17 +473,14 @@ void dispatch_init(void)
 
 void dispatch_bytes(const uint8_t *data, uint8_t len)
 {
-    uint8_t irq = port_irq_off(); /* the frame path moves the UART's bytes itself */
     while (len > 0u) {
         frame_status_t st;
         uint8_t took = frame_rx_bytes(&core.rx, data, len, &st);
         port_rx_release(took); /* before a long step: the RX ring gets its room back */
-        port_poll();
         data += took;
         len = (uint8_t)(len - took);
         if (st != FRAME_MORE) {
             end_of_frame(st);
         }
     }
-    port_irq_restore(irq);
 }

@@ -21,16 +21,6 @@ void port_tx_close(uint8_t code);
 /* Returns once every queued byte has left the UART. */
 void port_flush(void);
 
-/* The frame path's short stretches run with the UART's interrupts held off and move its
- * bytes themselves: at 2 Mbaud an interrupt per byte each way takes about all of the
- * core's cycles while both directions stream. port_poll() moves what the UART has ready
- * (only with interrupts off); anything long (an estimator's step, CONFIG, a flush) runs
- * with them on. port_irq_off() and port_irq_on() return the state to restore. */
-uint8_t port_irq_off(void);
-uint8_t port_irq_on(void);
-void port_irq_restore(uint8_t state);
-void port_poll(void);
-
 /* The first n bytes handed to dispatch_bytes() are done with: the RX buffer may reuse them. */
 void port_rx_release(uint8_t n);
 /* Bytes the RX buffer holds; the host keeps no more than this in flight. */

@@ -190,19 +190,14 @@ def figures(profile: Profile, files: dict | None = None) -> dict:
 
 
 # The link's parts, by the code that does them: the CRC's lines (the assembly loops'
-# CRC32C_BYTE, proto/crc32c.h's inline update), the UART moved by polling outside the
-# idle loop (UART_POLL's lines in the frame loops, and uart_poll), the loops of
-# firmware/src/frame_avr.S less those (copying a request's bytes, COBS-encoding a reply
-# into the TX ring).
+# CRC32C_BYTE, proto/crc32c.h's inline update), the loops of firmware/src/frame_avr.S
+# less their CRC (copying a request's bytes, COBS-encoding a reply into the TX ring).
 _CRC_MACRO = "CRC32C_BYTE"
 _CRC_HEADER = "firmware/lib/proto/crc32c.h"
-_POLL_MACRO = "UART_POLL"
-_POLL_FUNCTION = "uart_poll"
 _FRAME_LOOPS = ("frame_rx_run", "frame_tx_run")
 EXCHANGE_PARTS = (
     "RX interrupts",
     "TX interrupts",
-    "UART polls",
     "CRC-32C",
     "COBS and copying",
     "fetch, dispatch, handler, the rest",
@@ -215,19 +210,11 @@ def _source(path: Path) -> tuple[str, ...]:
     return tuple(path.read_text().splitlines()) if path.exists() else ()
 
 
-def _asm_line(line: Line | None) -> str:
-    if line is None or not line.file.endswith(".S"):
-        return ""
-    text = _source(DATA_ROOT / line.file)
-    return text[line.line - 1].strip() if 0 < line.line <= len(text) else ""
-
-
 def _is_crc(line: Line | None) -> bool:
-    return line is not None and (line.file == _CRC_HEADER or _asm_line(line) == _CRC_MACRO)
-
-
-def _is_poll(line: Line | None) -> bool:
-    return _asm_line(line).split(" ")[0] == _POLL_MACRO
+    if line is None or line.file == _CRC_HEADER:
+        return line is not None
+    text = _source(DATA_ROOT / line.file) if line.file.endswith(".S") else ()
+    return 0 < line.line <= len(text) and text[line.line - 1].strip() == _CRC_MACRO
 
 
 def exchange_parts(profile: Profile) -> dict[str, float]:
@@ -236,27 +223,19 @@ def exchange_parts(profile: Profile) -> dict[str, float]:
     irq = profile.interrupts()
     rx = float(irq.get("interrupt USART0_RX", np.zeros(1)).sum()) / per
     tx = float(irq.get("interrupt USART0_UDRE", np.zeros(1)).sum()) / per
-    lines = profile.hot_lines(len(profile.pc_cycles))
-    in_loops = [ln for ln in lines if ln.function in _FRAME_LOOPS]
-    crc = sum(ln.cycles for ln in lines if _is_crc(ln.line)) / per
-    crc_in_loops = sum(ln.cycles for ln in in_loops if _is_crc(ln.line)) / per
-    poll_in_loops = sum(ln.cycles for ln in in_loops if _is_poll(ln.line)) / per
-    stats = {s.name: float(s.self.sum()) for s in profile.function_stats()}
-    poll = poll_in_loops + stats.get(_POLL_FUNCTION, 0.0) / per
-    loops = sum(stats.get(name, 0.0) for name in _FRAME_LOOPS) / per
-    cobs = loops - crc_in_loops - poll_in_loops
+    crc_lines = [ln for ln in profile.hot_lines(len(profile.pc_cycles)) if _is_crc(ln.line)]
+    crc = sum(ln.cycles for ln in crc_lines) / per
+    crc_in_loops = sum(ln.cycles for ln in crc_lines if ln.function in _FRAME_LOOPS) / per
+    loops = sum(float(s.self.sum()) for s in profile.function_stats() if s.name in _FRAME_LOOPS)
+    cobs = loops / per - crc_in_loops
     idle = profile.function(profile.idle) if profile.idle else None
     busy = float((profile.window_cycles - (idle.self if idle else 0)).sum()) / per
-    values = (rx, tx, poll, crc, cobs, busy - rx - tx - poll - crc - cobs, busy)
+    values = (rx, tx, crc, cobs, busy - rx - tx - crc - cobs, busy)
     return dict(zip(EXCHANGE_PARTS, values, strict=True))
 
 
-def parts_table(
-    parts: dict[int, dict[str, float]], board: str, window: int = 1, baud: int | None = None
-) -> Table:
-    how = "stop-and-wait" if window == 1 else f"window {window}"
-    at = f", {baud:,} baud" if baud else ""
-    t = Table(title=f"one PING exchange by part on {board}, {how}{at} (cycles per exchange)")
+def parts_table(parts: dict[int, dict[str, float]], board: str) -> Table:
+    t = Table(title=f"one PING exchange by part on {board}, stop-and-wait (cycles per exchange)")
     t.add_column("part")
     for size in parts:
         t.add_column(f"{size} B", justify="right")
