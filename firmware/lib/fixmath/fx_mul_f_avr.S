@@ -11,6 +11,7 @@
 ; a RET (QEMU 7.2 runs one wrong: see firmware/src/mulhisi3.S).
 
 #define SATURATED 0x01          /* STATUS_SATURATED, proto/messages.h */
+#include "fx_mul32x16.inc"
 #include "fx_table_jump.inc"
 
 ; Q = P >> 8 (P = |a| m < 2^47) lives in five registers, byte i of Q in QREG(i):
@@ -135,39 +136,8 @@ fx_mul_f_avr:
         sbci    r23, 0xff
         sbci    r24, 0xff
         sbci    r25, 0xff
-1:      clr     r26             ; P = |a| m < 2^47: P1 in r19, P2..P5 in r26, r27, r30, r31
-        clr     r27
-        mul     r22, r20        ; a0 m0: only its high byte reaches P1
-        mov     r19, r1
-        mul     r22, r21        ; a0 m1
-        add     r19, r0
-        adc     r26, r1
-        mov     r22, r18        ; sh, now that a0 is used
-        clr     r18             ; zero
-        mul     r23, r20        ; a1 m0
-        add     r19, r0
-        adc     r26, r1
-        adc     r27, r18
-        mul     r23, r21        ; a1 m1: P1..P3 now hold a0..a1 times m, below 2^32
-        add     r26, r0
-        adc     r27, r1
-        clr     r30
-        clr     r31
-        mul     r24, r20        ; a2 m0
-        add     r26, r0
-        adc     r27, r1
-        adc     r30, r18
-        mul     r24, r21        ; a2 m1
-        add     r27, r0
-        adc     r30, r1
-        adc     r31, r18
-        mul     r25, r20        ; a3 m0
-        add     r27, r0
-        adc     r30, r1
-        adc     r31, r18
-        mul     r25, r21        ; a3 m1
-        add     r30, r0
-        adc     r31, r1
+1:
+        MUL32X16
         clr     r1
         movw    r20, r30        ; P4, P5 out of Z
         mov     r30, r22        ; the entry for sh (9..47)

@@ -6,42 +6,12 @@
 ; avr-gcc's interface: a in r25:r22, m in r21:r20, sh in r18; result in r25:r22. Clobbers
 ; r0, r18-r27, r30, r31 (call-used); r1 is left 0. No skip over a RET.
 
+#include "fx_mul32x16.inc"
+
         .section .text.fx_umul_f_avr, "ax", @progbits
         .global fx_umul_f_avr
 fx_umul_f_avr:
-        clr     r26             ; P = a m: P1 in r19, P2..P5 in r26, r27, r30, r31
-        clr     r27
-        mul     r22, r20        ; a0 m0: only its high byte reaches P1
-        mov     r19, r1
-        mul     r22, r21        ; a0 m1
-        add     r19, r0
-        adc     r26, r1         ; r26 was 0: no carry out
-        mov     r22, r18        ; sh, now that a0 is used
-        clr     r18             ; zero
-        mul     r23, r20        ; a1 m0
-        add     r19, r0
-        adc     r26, r1
-        adc     r27, r18
-        mul     r23, r21        ; a1 m1: P1..P3 now hold a0..a1 times m, below 2^32
-        add     r26, r0
-        adc     r27, r1
-        clr     r30
-        clr     r31
-        mul     r24, r20        ; a2 m0
-        add     r26, r0
-        adc     r27, r1
-        adc     r30, r18
-        mul     r24, r21        ; a2 m1
-        add     r27, r0
-        adc     r30, r1
-        adc     r31, r18
-        mul     r25, r20        ; a3 m0
-        add     r27, r0
-        adc     r30, r1
-        adc     r31, r18
-        mul     r25, r21        ; a3 m1: P < 2^47, no carry out of P5
-        add     r30, r0
-        adc     r31, r1
+        MUL32X16
         clr     r1
         subi    r22, 17         ; k = sh - 17: t = P >> 16 goes right by k + 1, rounded
         brcc    1f
