@@ -191,6 +191,11 @@ class Dither:
             k, self.left = k + step, self.left - step
         return out
 
+    def skip(self, n: int) -> None:
+        """Draws the next n samples' holds, a chunk at a time, keeping none of them."""
+        for k0 in range(0, n, 1 << 16):
+            self.take(min(1 << 16, n - k0))
+
 
 def _grade(
     p: Mapping[str, Any], duration: float, rng: np.random.Generator
@@ -217,7 +222,7 @@ def _stream(
     n = int(round(duration / T))
     grade_at = _grade(p, duration, rng)
     dither = Dither(T, p["dither"], copy.deepcopy(rng))
-    Dither(T, p["dither"], rng).take(n)  # the noise is drawn after the whole drive's dither
+    Dither(T, p["dither"], rng).skip(n)  # the noise is drawn after the whole drive's dither
     noise = NoiseBlocks(rng, n, 3)  # v, v̇, z
     noisy = p["noise"] >= 0.5
     sd_v, sd_a, sd_z = (0.05, 0.1, 10.0) if noisy else (0.0, 0.0, p["sigma_n"])
