@@ -21,6 +21,30 @@ static uint16_t isqrt(uint32_t x)
     return (uint16_t)root;
 }
 
+/* floor(2^31 / l) for 2 <= l < 2^15, restoring division with the remainder (below l) in
+ * 16 bits: the dividend's bits after its leading one are zeros, and the quotient's
+ * leading zeros need no 32-bit shifts (~300 cycles where libgcc's 32-bit division costs
+ * ~600). */
+static uint32_t recip31(uint16_t l)
+{
+    uint16_t rem = 1;
+    uint8_t left = 31;
+    while (left != 0u && (uint16_t)(rem << 1) < l) {
+        rem = (uint16_t)(rem << 1);
+        left--;
+    }
+    uint32_t q = 0;
+    for (; left != 0u; left--) {
+        rem = (uint16_t)(rem << 1);
+        q <<= 1;
+        if (rem >= l) {
+            rem = (uint16_t)(rem - l);
+            q |= 1u;
+        }
+    }
+    return q;
+}
+
 static int16_t to_q15(int32_t x, uint8_t *status)
 {
     if (x > INT16_MAX || x < -INT16_MAX) {
@@ -51,7 +75,7 @@ uint8_t chol_solve_q15(const int32_t *a, int32_t *b, uint8_t n, int16_t *l, int3
                     return 0;
                 }
                 l[j * n + j] = (int16_t)isqrt((uint32_t)s);
-                inv[j] = (int32_t)(((uint32_t)1 << 31) / (uint32_t)l[j * n + j]);
+                inv[j] = (int32_t)recip31((uint16_t)l[j * n + j]); /* l_jj >= 32 */
             } else {
                 l[i * n + j] = to_q15(fx_mul_shr(s, inv[j], 31, status), status);
             }
