@@ -39,7 +39,7 @@ void uart_init(uint32_t baud)
     UCSR0A = _BV(U2X0);
     UBRR0 = (uint16_t)uart_ubrr(baud);
     UCSR0C = _BV(UCSZ01) | _BV(UCSZ00); /* 8N1 */
-    UCSR0B = _BV(RXEN0) | _BV(TXEN0) | _BV(RXCIE0);
+    UCSR0B = UART_UCSR0B_ON;
     current_baud = baud;
 }
 

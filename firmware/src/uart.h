@@ -3,6 +3,11 @@
 #ifndef VEHIL_UART_H
 #define VEHIL_UART_H
 
+/* UCSR0B while the UART runs: receiver, transmitter and the receive interrupt on; the
+ * UDRE interrupt comes on with each released reply (uart_isr.S writes this to end it). */
+#define UART_UCSR0B_ON (_BV(RXEN0) | _BV(TXEN0) | _BV(RXCIE0))
+
+#ifndef __ASSEMBLER__
 #include <stdint.h>
 
 #define UART_DEFAULT_BAUD 1000000UL
@@ -23,8 +28,8 @@ void uart_tx_close(uint8_t code);
  * is inline: every byte of every reply goes through it. */
 /* Each interrupt's cycles per byte, call and return included (uart_isr.S; vehil
  * profile --functions counts them). */
-#define UART_RX_ISR_CYCLES 49u
-#define UART_TX_ISR_CYCLES 41u
+#define UART_RX_ISR_CYCLES 44u
+#define UART_TX_ISR_CYCLES 39u
 extern volatile uint8_t uart_rx_head;
 extern volatile uint8_t uart_tx_buf[UART_TX_SIZE];
 extern volatile uint8_t uart_tx_tail;
@@ -46,5 +51,7 @@ uint32_t uart_baud(void);
 /* UBRR for baud with U2X, or -1 if out of range. */
 int32_t uart_ubrr(uint32_t baud);
 uint16_t uart_rx_overruns(void);
+
+#endif /* __ASSEMBLER__ */
 
 #endif

@@ -1042,7 +1042,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         "--window",
         type=int,
         default=None,
-        help="with --functions: samples in flight (1: stop-and-wait)",
+        help="with --functions: samples (with --ping: PINGs) in flight (1: stop-and-wait)",
     )
     p.add_argument(
         "--ping",

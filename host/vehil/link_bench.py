@@ -36,7 +36,6 @@ from vehil.protocol import frame as framing
 from vehil.vcd import frames, uart_bytes
 
 F_CPU = 16_000_000
-SIMAVR_BITS_PER_BYTE = 11  # simavr's UART counts a parity bit in 8N1 (sim/README.md)
 PING_SIZE = 16
 STREAM_WINDOW = 8
 STREAM_BAUDS = (1_000_000, 2_000_000)
@@ -114,7 +113,7 @@ def round_trips(count: int, latency_cycles: float) -> list[dict[str, Any]]:
             _set_baud(link, baud)
             run_ping(link, count=50, size=PING_SIZE, window=1)  # settle
             s = run_ping(link, count=count, size=PING_SIZE, window=1)
-            wire_s = s.wire_bytes * SIMAVR_BITS_PER_BYTE / baud  # simavr's bytes
+            wire_s = s.wire_bytes * profile.SIMAVR_BITS_PER_BYTE / baud  # simavr's bytes
             # The request's receive interrupts and fetch run as its bytes arrive; what
             # the wire does not cover is the last byte to the reply queued.
             bound_s = wire_s + latency_cycles / F_CPU
@@ -220,14 +219,15 @@ def report(f: dict[str, Any]) -> str:
     lines = []
     if "board_costs" in f:
         lines.append(
-            "board cycles per PING exchange (bursts at 2 Mbaud; RX interrupts counted per byte):"
+            "cycles per streamed PING exchange (bursts sent at once, their bytes arriving "
+            "at the line rate; by the board's clock; with the wire: no less than the reply's "
+            "time on simavr's 11-bit bytes):"
         )
     for c in f.get("board_costs", []):
-        share = ", ".join(f"{int(b) // 1000} k {v * 100:.1f} %" for b, v in c["line_share"].items())
         lines.append(
-            f"  {c['size']:3d} B: {c['cycles']:7,.0f} cycles ({c['no_rx_cycles']:,.0f} without "
-            f"RX interrupts, {c['rx_isr_cycles']:,} RX, {c['tx_isr_cycles']:,} TX interrupts); "
-            f"most of the line rate: {share}"
+            f"  {c['baud']:>9,} baud, {c['size']:3d} B: board {c['board_cycles']:7,.0f} cycles "
+            f"({c['arrived_cycles']:,.0f} with the requests already in), with the wire "
+            f"{c['cycles']:,.0f}: {c['line_share'] * 100:.1f} % of the 10-bit line rate"
         )
     if "streaming" in f:
         lines.append(
@@ -260,7 +260,7 @@ def report(f: dict[str, Any]) -> str:
     if "round_trips" in f:
         lines.append(
             f"stop-and-wait {PING_SIZE}-byte PINGs on simavr-realtime (host clock; wire at "
-            f"simavr's {SIMAVR_BITS_PER_BYTE} bits a byte):"
+            f"simavr's {profile.SIMAVR_BITS_PER_BYTE} bits a byte):"
         )
     for t in f.get("round_trips", []):
         lines.append(

@@ -33,6 +33,7 @@ SIZES = (0, 16, 64, 112)
 WINDOWS = (1, 2, 4, 8, 16, 32)
 F_CPU = 16_000_000
 USB_BRIDGE_S = 4.096e-3  # the 16U2 flushes board->host every 4.096 ms
+SIMAVR_BITS_PER_BYTE = 11  # simavr's UART counts a parity bit in 8N1 (sim/README.md)
 
 
 @dataclass(frozen=True)
@@ -109,67 +110,74 @@ def throughput_point(link: Link, window: int, count: int, size: int = 16) -> dic
     }
 
 
-# The UART interrupts' cycles per byte, counted from firmware/src/uart_isr.S: response
-# and vector jump (8), saves, body and restores, RETI (5).
-RX_ISR_CYCLES = 49
-TX_ISR_CYCLES = 41
-BURST_BAUD = 2_000_000
+BURST_BAUDS = (1_000_000, 2_000_000)
 BURSTS = 12
 BURST_SIZES = (0, 16, 32, 64)  # at least three requests fit the board's RX buffer
 
 
 def board_cost_point(link: Link, size: int, bursts: int = BURSTS) -> dict[str, Any]:
-    """Board cycles per exchange of a `size`-byte PING when the board never waits for the host.
+    """Board cycles per exchange of a `size`-byte PING streamed at the link's baud, by the
+    board's own clock, whatever the host's pace.
 
-    Bursts of as many PINGs as the board's RX buffer holds, sent at once at 2 Mbaud: they
-    arrive faster than the board answers them, so once the last is in, the board goes from
-    one to the next without waiting and without receive interrupts, and the spacing of the
-    PONG timestamps is its cost per exchange: fetching, decoding and checking the request,
-    handling it, encoding the reply, the TX interrupts that send it. Streaming adds the
-    request's receive interrupts, counted per byte. Cycle-exact on simavr, whatever the host.
+    Bursts of as many PINGs as the board's RX buffer holds, sent at once: their bytes come
+    in back to back at the line rate, as when the host keeps the window full, and the
+    spacing of the PONG timestamps over the burst's first half, while later requests still
+    arrive, is the board's cost: receiving, decoding and checking the request, handling
+    it, encoding and sending the reply. A stream goes no faster than its replies leave:
+    the exchange takes the board's cost or the reply's time on simavr's wire (11 bits a
+    byte), whichever is longer, and its share of the 10-bit line rate follows from that
+    (simavr's bytes cap it at 10/11). The second half's spacing, every request already
+    in the RX ring, is the board's cost without the receiving. Cycle-exact on simavr.
     """
     assert link.info is not None
+    baud = int(link.info.fields["baud"])
     request = len(framing.encode(0, 1, bytes(size)))
     reply = len(framing.encode(0, 1, bytes(size + 4)))
     n = link.info.rx_buffer // request
     if n < 3:
         raise ValueError(f"{size}-byte PINGs: fewer than three fit the board's RX buffer")
     before = link.stats()
-    spacing: list[int] = []
+    arriving: list[int] = []
+    arrived: list[int] = []
     for b in range(bursts):
         payloads = [bytes([1 + (b + i) % 255]) * size for i in range(n)]
         stamps = [
             r.fields()["timestamp"]
             for r in link.pipeline((("PING", {"payload": p}) for p in payloads), window=n)
         ]
-        # The second half of the burst: every request was in the RX ring by then.
-        tail = stamps[n // 2 :]
-        spacing += [(y - x) & 0xFFFFFFFF for x, y in zip(tail, tail[1:], strict=False)]
+        spacing = [(y - x) & 0xFFFFFFFF for x, y in zip(stamps, stamps[1:], strict=False)]
+        arriving += spacing[: n // 2]
+        arrived += spacing[n // 2 :]
     after = link.stats()
     handling = (after["frame_cycles"] - before["frame_cycles"]) / max(
         1, after["rx_frames"] - before["rx_frames"]
     )
-    per_exchange = float(np.median(spacing)) + RX_ISR_CYCLES * request
-    wire_cycles = max(request, reply) * 10 * F_CPU  # per baud: divide by it
+    board = float(np.median(arriving))
+    per_exchange = max(board, max(request, reply) * SIMAVR_BITS_PER_BYTE * F_CPU / baud)
+    wire_cycles = max(request, reply) * 10 * F_CPU / baud  # the 10-bit line rate
     return {
+        "baud": baud,
         "size": size,
         "request_bytes": request,
         "reply_bytes": reply,
-        "no_rx_cycles": float(np.median(spacing)),
+        "board_cycles": board,
         "cycles": per_exchange,
+        "arrived_cycles": float(np.median(arrived)),
         "handling_cycles": handling,
-        "rx_isr_cycles": RX_ISR_CYCLES * request,
-        "tx_isr_cycles": TX_ISR_CYCLES * reply,
-        "line_share": {
-            str(baud): min(1.0, wire_cycles / baud / per_exchange) for baud in BAUDS_DEFAULT
-        },
+        "line_share": min(1.0, wire_cycles / per_exchange),
+        "overruns": after["overruns"] - before["overruns"],
     }
 
 
-def board_costs(link: Link, sizes: tuple[int, ...] = BURST_SIZES) -> list[dict[str, Any]]:
-    link.set_baud(BURST_BAUD)
+def board_costs(
+    link: Link, sizes: tuple[int, ...] = BURST_SIZES, bauds: tuple[int, ...] = BURST_BAUDS
+) -> list[dict[str, Any]]:
     try:
-        return [board_cost_point(link, size) for size in sizes]
+        rows = []
+        for baud in bauds:
+            link.set_baud(baud)
+            rows += [board_cost_point(link, size) for size in sizes]
+        return rows
     finally:
         link.set_baud(1_000_000)
 

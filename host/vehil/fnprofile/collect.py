@@ -149,17 +149,22 @@ def pings(
     what: str = "frame",
     folder: Path | None = None,
     timeout_s: float = 2.0,
+    window: int = 1,
+    baud: int | None = None,
 ) -> Profile:
-    """PING exchanges (stop-and-wait) profiled: "frame" has one window per frame the
-    core handled; "exchange" one window over all `count` exchanges, the whole firmware."""
+    """PING exchanges profiled, `window` in flight (1: stop-and-wait) at `baud` (None:
+    the board's): "frame" has one window per frame the core handled; "exchange" one
+    window over all `count` exchanges, the whole firmware."""
     from vehil.ping import run_ping
 
     s = session(board, what, folder)
     target = s.board(board, BoardOptions(timeout_s=timeout_s))
     with target.session() as link:
+        if baud is not None:
+            link.set_baud(baud)
         run_ping(link, count=3, size=size)
         _cut(target)  # what the boot and the warm-up did is segment 0
-        run_ping(link, count=count, size=size)
+        run_ping(link, count=count, size=size, window=window)
         _cut(target)
     profile = Profile.read(s.output, s.elf, what, segment=1)
     if what == "exchange":

@@ -65,6 +65,9 @@ def profile_functions(args: argparse.Namespace, console: Console) -> int:
         if per not in ("frame", "exchange"):
             raise VehilError(f"--ping profiles per frame or per exchange, not per {per}")
         parts: dict[int, dict[str, float]] = {}
+        bauds = [] if args.bauds == "all" else args.bauds.split(",")
+        baud = int(bauds[0]) if len(bauds) == 1 else None  # one --bauds: the pings' baud
+        window = args.window or 1
         for size in args.ping:
             folder = Path(args.out or f"runs/profile-functions-ping{size}-{per}-{board}")
             if args.out and len(args.ping) > 1:
@@ -76,8 +79,10 @@ def profile_functions(args: argparse.Namespace, console: Console) -> int:
                 what=per,
                 folder=folder / "bridge",
                 timeout_s=args.timeout,
+                window=window,
+                baud=baud,
             )
-            title = f"{size}-byte PING on {board}: " + (
+            title = f"{size}-byte PING on {board}, window {window}: " + (
                 "the frame path (end_of_frame)"
                 if per == "frame"
                 else f"the whole firmware per exchange, {args.count} exchanges"
@@ -86,7 +91,7 @@ def profile_functions(args: argparse.Namespace, console: Console) -> int:
             if per == "exchange":
                 parts[size] = tables.exchange_parts(profile)
         if parts:
-            console.print(tables.parts_table(parts, board))
+            console.print(tables.parts_table(parts, board, window, baud))
         return 0
     if not args.scenario:
         raise VehilError("--functions needs a SCENARIO (or --ping SIZE for the link's frame path)")

@@ -234,8 +234,12 @@ def exchange_parts(profile: Profile) -> dict[str, float]:
     return dict(zip(EXCHANGE_PARTS, values, strict=True))
 
 
-def parts_table(parts: dict[int, dict[str, float]], board: str) -> Table:
-    t = Table(title=f"one PING exchange by part on {board}, stop-and-wait (cycles per exchange)")
+def parts_table(
+    parts: dict[int, dict[str, float]], board: str, window: int = 1, baud: int | None = None
+) -> Table:
+    how = "stop-and-wait" if window == 1 else f"window {window}"
+    at = f", {baud:,} baud" if baud else ""
+    t = Table(title=f"one PING exchange by part on {board}, {how}{at} (cycles per exchange)")
     t.add_column("part")
     for size in parts:
         t.add_column(f"{size} B", justify="right")
