@@ -200,24 +200,24 @@ static uint8_t solve_f32(stlqf_state_t *s, float *log_cond)
         scale[i] = gii > 0.0f ? gii : 1.0f; /* a column of zeros (standing still) */
         g[i * 6u + i] += f->mu * scale[i];
     }
-    float inv[6];
-    if (!chol_solve_f32(g, rhs, 6, inv)) {
+    float inv_d[6];
+    if (!chol_ldl_solve_f32(g, rhs, 6, inv_d)) {
         *log_cond = INFINITY;
         return STATUS_SINGULAR;
     }
-    /* The condition estimate of the scaled matrix: its pivots are L_ii² / G_ii, compared
-     * as their reciprocals (products of 1 / L_ii, no division each). */
+    /* The condition estimate of the scaled matrix: its pivots are D_i / G_ii, compared
+     * as their reciprocals (products, no division each). */
     float lo = 0.0f, hi = 0.0f;
     for (uint8_t i = 0; i < 6u; i++) {
-        float inv_pivot = inv[i] * inv[i] * scale[i];
+        float inv_pivot = inv_d[i] * scale[i];
         lo = (i == 0u || inv_pivot < lo) ? inv_pivot : lo;
         hi = (i == 0u || inv_pivot > hi) ? inv_pivot : hi;
         f->theta[unknown(i)] = prior[unknown(i)] + rhs[i];
     }
     *log_cond = log10f(hi / lo);
-    /* The mass's scaled pivot L² / G_mm is its information plus μ; the prior's share of
+    /* The mass's scaled pivot D / G_mm is its information plus μ; the prior's share of
      * m̂ is μ over it (docs/estimators/stlqf.md). */
-    float pivot = 1.0f / (inv[STLQF_LAST] * inv[STLQF_LAST] * scale[STLQF_LAST]);
+    float pivot = g[STLQF_LAST * 7u] / scale[STLQF_LAST];
     float held = f->mu / pivot;
     /* The next window's μ: mu_max (mu_max / ι)² within [mu_min, mu_max]. */
     float info = pivot - f->mu;

@@ -38,24 +38,43 @@ uint8_t chol_factor_f32(const float *a, uint8_t n, float *l)
     return factor(a, n, l, inv);
 }
 
-uint8_t chol_solve_f32(float *a, float *b, uint8_t n, float *inv)
+uint8_t chol_ldl_solve_f32(float *a, float *b, uint8_t n, float *inv_d)
 {
-    if (!factor(a, n, a, inv)) {
-        return 0;
+    float w[CHOL_F32_MAX_N]; /* row i's l_ik d_k */
+    for (uint8_t i = 0; i < n; i++) {
+        float *ai = a + i * n;
+        for (uint8_t j = 0; j < i; j++) {
+            const float *aj = a + j * n;
+            float s = ai[j];
+            for (uint8_t k = 0; k < j; k++) {
+                s = fmaf(-w[k], aj[k], s);
+            }
+            w[j] = s;
+            ai[j] = s * inv_d[j];
+        }
+        float d = ai[i];
+        for (uint8_t k = 0; k < i; k++) {
+            d = fmaf(-w[k], ai[k], d);
+        }
+        if (!(d > 0.0f)) {
+            return 0;
+        }
+        ai[i] = d;
+        inv_d[i] = 1.0f / d;
     }
     for (uint8_t i = 0; i < n; i++) { /* L y = b */
         float s = b[i];
         for (uint8_t k = 0; k < i; k++) {
-            s -= a[i * n + k] * b[k];
+            s = fmaf(-a[i * n + k], b[k], s);
         }
-        b[i] = s * inv[i];
+        b[i] = s;
     }
-    for (uint8_t i = n; i-- > 0u;) { /* Lᵀ x = y */
-        float s = b[i];
+    for (uint8_t i = n; i-- > 0u;) { /* D Lᵀ x = y */
+        float s = b[i] * inv_d[i];
         for (uint8_t k = (uint8_t)(i + 1u); k < n; k++) {
-            s -= a[k * n + i] * b[k];
+            s = fmaf(-a[k * n + i], b[k], s);
         }
-        b[i] = s * inv[i];
+        b[i] = s;
     }
     return 1;
 }
@@ -89,18 +108,4 @@ uint8_t chol_inv_f32(float *a, uint8_t n)
         }
     }
     return 1;
-}
-
-float chol_inv_diag_f32(const float *l, const float *inv, uint8_t n, uint8_t a)
-{
-    float w[CHOL_F32_MAX_N], sum = 0.0f;
-    for (uint8_t i = a; i < n; i++) {
-        float s = i == a ? 1.0f : 0.0f;
-        for (uint8_t k = a; k < i; k++) {
-            s -= l[i * n + k] * w[k];
-        }
-        w[i] = s * inv[i];
-        sum += w[i] * w[i];
-    }
-    return sum;
 }

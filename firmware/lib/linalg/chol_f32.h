@@ -18,13 +18,10 @@ uint8_t chol_factor_f32(const float *a, uint8_t n, float *l);
 /* a (n×n, SPD) -> a⁻¹ in place; returns 0 if a pivot is not positive (a is then garbage). */
 uint8_t chol_inv_f32(float *a, uint8_t n);
 
-/* Solves a x = b: x overwrites b, a is overwritten by its factor L and inv (n entries)
- * gets 1 / L_ii. Returns 0 if a pivot is not positive. */
-uint8_t chol_solve_f32(float *a, float *b, uint8_t n, float *inv);
-
-/* [(L Lᵀ)⁻¹]_aa = ‖L⁻¹ e_a‖² from chol_solve_f32's factor l (n×n, lower) and inv: a
- * forward substitution from row a. */
-float chol_inv_diag_f32(const float *l, const float *inv, uint8_t n, uint8_t a);
+/* Solves a x = b by LDLᵀ, L unit lower, so without square roots (~480 cycles each on the
+ * AVR): x overwrites b, a gets L below its diagonal and D on it, inv_d (n entries) 1 / D_i.
+ * Returns 0 if a pivot is not positive. */
+uint8_t chol_ldl_solve_f32(float *a, float *b, uint8_t n, float *inv_d);
 
 #ifdef __cplusplus
 }
