@@ -41,6 +41,10 @@ class BoardError(VehilError):
         self.detail = detail
 
 
+class PlantLimit(VehilError):
+    """A plant driven past what its model can simulate: it says so instead of going NaN."""
+
+
 class BuildError(VehilError):
     """A build step (compiler, PlatformIO, make) failed."""
 

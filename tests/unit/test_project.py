@@ -116,7 +116,7 @@ def test_a_packaged_plugin_registers_through_its_entry_point(tmp_path) -> None:
         ('[project]\nestimators = "specs/blend.py"\n', r"project.estimators: a list of paths"),
         ('[project]\nscenarios = "nowhere"\n', r"project.scenarios: no folder"),
         ('[project]\nc_sources = ["nowhere"]\n', r"project.c_sources: no folder .*nowhere"),
-        ('[project]\nimage = 3\n', r"project.image: estimator names"),
+        ("[project]\nimage = 3\n", r"project.image: estimator names"),
         ("[projet]\n", r"give one \[project\] table"),
     ],
 )

@@ -4,8 +4,11 @@ import numpy as np
 import pytest
 
 from vehil import plants
+from vehil.errors import PlantLimit
 from vehil.models.quarter_car import NOMINAL
+from vehil.papers.eso import HIFI
 from vehil.plants.quarter_car import QuarterCarLoop, simulate_with
+from vehil.plants.quarter_car_truth import truth_car
 
 QUIET = {"noise_var": 0.0, "bias_lo": 0.0, "bias_hi": 0.0}
 
@@ -101,3 +104,39 @@ def test_enveloping_and_sensor_bandwidth_smooth_what_the_car_and_sensors_see() -
     # the same road, its short waves averaged over the patch, the accelerometers band-limited
     assert np.corrcoef(sharp.truth["x_r"], soft.truth["x_r"])[0, 1] > 0.98
     assert np.std(np.diff(soft.signals["a_us"])) < 0.8 * np.std(np.diff(sharp.signals["a_us"]))
+
+
+ROUGH = {"road": 2, "iso_class": 5, "speed_kmh": 100}  # ISO 8608 class E at 100 km/h
+
+
+@pytest.mark.parametrize("car", [{}, HIFI], ids=["default", "hifi"])
+def test_a_class_e_road_at_100_kmh_stays_finite_and_the_damper_never_pushes(car) -> None:  # noqa: ANN001
+    """The literal-square damper reversed past 2 m/s of compression (NaN within 1 s) and
+    the hifi car's Dahl friction outran RK4 at 1 kHz; both drives now run to the end."""
+    p = params(**ROUGH, **car)
+    truth = simulate_with(p, 10.0, 0.01, 1).truth
+    assert all(np.isfinite(x).all() for x in truth.values())
+    dv = truth["v_s"] - truth["v_us"]
+    damper = truth_car(p).damper
+    assert min(damper(v) * v for v in dv) >= 0.0  # it dissipates on every sample
+    assert dv.min() < -2.0  # and the drive reached the speeds where it used to push
+    assert np.abs(truth["defl"]).max() < 0.3  # the strut's cubic spring holds the travel
+    assert np.sqrt(np.mean(truth["a_body"] ** 2)) < 30.0
+
+
+def test_the_literal_damper_holds_its_peak_compression_force() -> None:
+    car = truth_car(params())
+    peak = -car.c1 / (2 * car.c2)
+    assert car.damper(peak) == pytest.approx(-(car.c1**2) / (4 * car.c2))
+    assert car.damper(5 * peak) == car.damper(peak)
+    assert truth_car(params(damper_hold=0)).damper(5 * peak) > 0  # the paper's law pushes
+
+
+def test_a_road_a_quarter_car_cannot_drive_is_refused_not_nan() -> None:
+    with pytest.raises(PlantLimit, match=r"quarter_car at t = .* s: the wheel is .* above"):
+        simulate_with(params(**dict(ROUGH, iso_class=8)), 10.0, 0.01, 1)
+
+
+def test_the_hifi_car_on_class_h_at_100_kmh_is_refused_not_nan() -> None:
+    with pytest.raises(PlantLimit, match="lower the speed or the road class"):
+        simulate_with(params(**dict(ROUGH, iso_class=8), **HIFI), 10.0, 0.01, 1)

@@ -32,6 +32,7 @@ from typing import Any
 
 import numpy as np
 
+from vehil.errors import PlantLimit
 from vehil.models.quarter_car import NOMINAL
 from vehil.plants import register
 from vehil.plants.base import FileInput, PlantSpec, Trace, join, joined
@@ -192,8 +193,13 @@ class QuarterCarLoop:
         self.u = float(outputs.get("u", 0.0))
         road = self.road(self.sub)
         r0 = self.r
-        for r1 in road:
-            self.x = self.car.rk4(self.x, self.u, r0, float(r1), self.h)
+        for i, r1 in enumerate(road):
+            try:
+                self.x = self.car.step(self.x, self.u, r0, float(r1), self.h)
+            except PlantLimit as exc:
+                raise PlantLimit(
+                    f"quarter_car at t = {(self.k + i / self.sub) * self.T:.3f} s: {exc}"
+                ) from None
             self.r_dot = (float(r1) - r0) / self.h
             r0 = float(r1)
             if self.acc_keep:
@@ -281,7 +287,23 @@ SPEC = register(
                 "friction_k", "N/m", default=0, lo=0, hi=1e5, doc="Dahl presliding stiffness, 0 off"
             ),
             Param("sign_preserving", "1", default=0, lo=0, hi=1, doc="1: c2 Δẋ|Δẋ| damper"),
+            Param(
+                "damper_hold",
+                "1",
+                default=1,
+                lo=0,
+                hi=1,
+                doc="1: the literal damper holds its peak compression force past c1/2c2",
+            ),
             Param("lift_off", "1", default=0, lo=0, hi=1, doc="1: the tire cannot pull"),
+            Param(
+                "jump_max",
+                "m",
+                default=1.0,
+                lo=0.01,
+                hi=100,
+                doc="the wheel this far above the road ends the drive (PlantLimit)",
+            ),
             Param("stop_gap", "m", default=0, lo=0, hi=0.5, doc="stops past ±gap, 0 off"),
             Param("k_stop", "N/m^2", default=5e6, lo=0, hi=1e9, doc="stop stiffness"),
             Param("c_tire", "N s/m", default=0, lo=0, hi=5000, doc="tire damping"),
