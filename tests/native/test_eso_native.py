@@ -86,7 +86,7 @@ def test_fixed_point_recovers_once_its_input_is_back_in_range(built) -> None:  #
         replies = [r.fields() for r in link.pipeline(requests)]
     out = np.array([spec.decode_outputs(r["outputs"], "FIXED") for r in replies])
     saturated = np.array([r["status"] & 0x01 for r in replies]) != 0
-    assert not saturated[:300].any() and saturated[300:310].all()
+    assert not saturated[:300].any() and saturated[300:302].all()  # the samples past Q21
     assert not saturated[-2000:].any()  # the last 20 s
     for i, s in enumerate(spec.outputs):
         tol = sc.tolerances[s.name].abs

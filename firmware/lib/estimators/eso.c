@@ -82,23 +82,17 @@ __attribute__((flatten)) static uint8_t step_q(eso_state_t *st, const uint8_t *i
     observer_q(s, z + 3, y_us, acc_us, &status);
     int32_t dx = fx_sub(z[0], z[3], &status), dv = fx_sub(z[1], z[4], &status);
     susp_est_q_t est = {z[0], z[1], z[3], z[4], z[2], z[5], 0};
-    int32_t fnl = 0; /* needed by variant B and by the nominal strut's road */
-    if (st->variant || !st->road_from) {
-        fnl = qcar_strut_nl_q(m, dx, dv, &status);
-    }
-    s->fnl = st->variant ? fnl : 0;
+    s->fnl = st->variant ? qcar_strut_nl_q(m, dx, dv, &status) : 0;
     if (st->variant) { /* variant B: the model's share leaves the lumped disturbances */
         est.F1 = fx_sub(z[2], fx_mul_f(s->fnl, m->inv_m_s, &status), &status);
         est.F2 = fx_add(z[5], fx_mul_f(s->fnl, m->inv_m_us, &status), &status);
     }
-    /* x̂_r = x̂_us + (m_us F̂2 - strut)/k_us, each term over k_us a factor to Q28 */
+    /* x̂_r = x̂_us + (m_us F̂2 - strut)/k_us, each term over k_us in metres Q28 */
     int32_t x_r = fx_add(est.x_us, fx_mul_f(est.F2, m->r_m_us, &status), &status);
     if (st->road_from) { /* the strut from the body: -m_s F̂1 */
         x_r = fx_add(x_r, fx_mul_f(est.F1, m->r_m_s, &status), &status);
-    } else { /* the nominal strut: f_nl + k1 Δx + c1 Δẋ */
-        x_r = fx_sub(x_r, fx_mul_f(fnl, m->r_force, &status), &status);
-        x_r = fx_sub(x_r, fx_mul_f(dx, m->r_k1, &status), &status);
-        x_r = fx_sub(x_r, fx_mul_f(dv, m->r_c1, &status), &status);
+    } else { /* the nominal strut at x̂ */
+        x_r = fx_sub(x_r, qcar_strut_over_kus_q(m, dx, dv, &status), &status);
     }
     est.x_r = x_r;
     s->ecu.u = susp_ctrl_step_q(&s->ecu.ctrl, &est, &status);

@@ -27,9 +27,11 @@ void qcar_q_from_f32(qcar_q_t *q, const qcar_f32_t *m, uint8_t *status)
         .inv_m_us = fx_factor(1.0f / m->m_us, 4, status),
         .r_m_us = fx_factor(m->m_us * inv_k, 8, status),
         .r_m_s = fx_factor(m->m_s * inv_k, 8, status),
-        .r_k1 = fx_factor(m->k1 * inv_k, 0, status),
+        .s1 = fx_from_float(m->k1 * inv_k, 20, status),
+        .s2 = fx_from_float(m->k2 * inv_k, 20, status),
+        .s3 = fx_from_float(m->k3 * inv_k, 20, status),
         .r_c1 = fx_factor(m->c1 * inv_k, 4, status),
-        .r_force = fx_factor(inv_k, 12, status),
+        .r_c2 = fx_factor(m->c2 * inv_k, 4, status),
     };
 }
 
@@ -45,4 +47,38 @@ int32_t qcar_strut_nl_q(const qcar_q_t *m, int32_t dx, int32_t dv, uint8_t *stat
     int32_t dx2 = fx_mul(dx, 28, dx, 28, 28, status);
     int32_t dv2 = fx_mul(dv, 24, dv, 24, 24, status);
     return fx_add(fx_mul(k, 8, dx2, 28, 16, status), fx_mul_f(dv2, m->c2, status), status);
+}
+
+/* x (q_in) to q_out in an int16, rounded, saturated (flagged). */
+static int16_t to_int16(int32_t x, uint8_t q_in, uint8_t q_out, uint8_t *status)
+{
+    int32_t r = fx_rescale(x, q_in, q_out, status);
+    if (r > INT16_MAX || r < INT16_MIN) {
+        *status |= STATUS_SATURATED;
+        return r < 0 ? INT16_MIN : INT16_MAX;
+    }
+    return (int16_t)r;
+}
+
+/* round(p x 2^-16), half up on p |x| with x's sign then applied: below 2^30, no saturation. */
+static int32_t times_x16(int32_t p, int16_t x)
+{
+    uint16_t x_abs = (uint16_t)(x < 0 ? -(int32_t)x : x);
+    int32_t r = fx_smul_f(p, (fx_ufactor_t){x_abs, 16});
+    return x < 0 ? -r : r;
+}
+
+int32_t qcar_strut_over_kus_q(const qcar_q_t *m, int32_t dx, int32_t dv, uint8_t *status)
+{
+    int16_t x = to_int16(dx, 28, 16, status); /* m Q16 */
+    int16_t v = to_int16(dv, 24, 12, status); /* m/s Q12 */
+    /* (k1 + Δx (k2 + k3 Δx)) Δx / k_us, Q20 throughout (|Δx| <= 1/2 keeps each sum below
+     * 550), then to Q28 */
+    int32_t p = fx_add(m->s2, times_x16(m->s3, x), status);
+    p = fx_add(m->s1, times_x16(p, x), status);
+    int32_t spring = fx_rescale(times_x16(p, x), 20, 28, status);
+    uint16_t v_abs = (uint16_t)(v < 0 ? -(int32_t)v : v);
+    int32_t v2 = (int32_t)fx_umul16x16(v_abs, v_abs); /* Δẋ² Q24, below 2^30 */
+    int32_t damper = fx_add(fx_mul_f(dv, m->r_c1, status), fx_mul_f(v2, m->r_c2, status), status);
+    return fx_add(spring, damper, status);
 }
