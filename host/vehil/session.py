@@ -9,10 +9,16 @@ Two pacings:
 
 from __future__ import annotations
 
+import gc
 import itertools
+import queue
+import sys
+import threading
 import time
 from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
+from typing import TypeVar
 
 import numpy as np
 
@@ -26,6 +32,18 @@ OnSample = Callable[[int, Reply, bool, np.ndarray], None]
 History = Callable[[int], Iterator[tuple[np.ndarray, np.ndarray]]]
 
 MAX_RESUMES = 3
+# A real-time open-loop run takes its frames from a thread that makes them this far
+# ahead: making a drive's next chunk (plant and float64 reference, ~1 s for STLQF's) must
+# not hold the loop up. A chunk's worth, so the next is begun a chunk before it is due.
+AHEAD = 4096
+# While a real-time loop runs, the thread making frames gives the interpreter up this
+# often (Python's default, 5 ms, is half the slack of a 100 Hz loop).
+SWITCH_INTERVAL_S = 2e-4
+# The last stretch before a sample is due is waited out awake: a sleep may overshoot.
+# Short, as the loop may run at a real-time priority, where spinning holds a core.
+SPIN_S = 1e-3
+
+Item = TypeVar("Item")
 
 
 @dataclass(frozen=True)
@@ -70,19 +88,88 @@ def _stream(
         for k, reply in enumerate(link.pipeline(requests, window=window), start):
             yield k, reply, False, spec.decode_outputs(reply.fields()["outputs"], mode)
         return
-    T = sc.sample_time
     # The clock starts once the first sample exists: making the drive's first chunk (its
     # plant and reference, ~0.8 s for STLQF's 60 s drive) is not the loop's time.
     frames = itertools.chain([next(frames)], frames) if source.total > start else frames
+    with _real_time(realtime):
+        if realtime and not source.closed:
+            frames = _made_ahead(frames, AHEAD)
+        yield from _paced(link, source, sc, realtime, frames, start)
+
+
+def _paced(
+    link: Link, source: Source, sc: Scenario, realtime: bool, frames: Iterator[bytes], start: int
+) -> Iterator[tuple[int, Reply, bool, np.ndarray]]:
+    spec, mode, T = sc.estimator, sc.mode, sc.sample_time
     t0 = time.perf_counter()
     for k, body in enumerate(frames, start):
         due = t0 + (k - start) * T
         while realtime and (wait := due - time.perf_counter()) > 0:
-            time.sleep(min(wait, 0.002) if wait > 0.003 else 0)
+            time.sleep(wait - SPIN_S if wait > SPIN_S else 0)
         reply = link.request("SAMPLE", inputs=body)
         out = spec.decode_outputs(reply.fields()["outputs"], mode)
         source.after(k, out)
         yield k, reply, realtime and reply.sent_at + reply.rtt_s > due + T, out
+
+
+@contextmanager
+def _real_time(on: bool) -> Iterator[None]:
+    """The interpreter set for a real-time loop: what exists now kept out of the garbage
+    collector's full passes (a pass over a long run's heap takes milliseconds), and the
+    interpreter switched between threads often."""
+    if not on:
+        yield
+        return
+    interval = sys.getswitchinterval()
+    gc.collect()
+    gc.freeze()
+    sys.setswitchinterval(SWITCH_INTERVAL_S)
+    try:
+        yield
+    finally:
+        sys.setswitchinterval(interval)
+        gc.unfreeze()
+
+
+def _made_ahead(items: Iterator[Item], depth: int) -> Iterator[Item]:
+    """`items`, made on a thread of their own up to `depth` ahead of the consumer; an
+    exception raised making them is raised here, in order. The thread keeps the loop's
+    scheduling priority: one below it would hold the interpreter's lock, when it has it,
+    for as long as the host's other work kept it from running (a priority inversion)."""
+    made: queue.Queue[tuple[bool, Item | BaseException | None]] = queue.Queue(maxsize=depth)
+    stop = threading.Event()
+
+    def put(item: tuple[bool, Item | BaseException | None]) -> bool:
+        while not stop.is_set():
+            try:
+                made.put(item, timeout=0.1)
+                return True
+            except queue.Full:
+                pass
+        return False
+
+    def make() -> None:
+        try:
+            for item in items:
+                if not put((True, item)):
+                    return
+            put((False, None))
+        except BaseException as exc:  # noqa: BLE001 - handed to the consumer
+            put((False, exc))
+
+    thread = threading.Thread(target=make, name="vehil-frames-ahead", daemon=True)
+    thread.start()
+    try:
+        while True:
+            more, item = made.get()
+            if not more:
+                if isinstance(item, BaseException):
+                    raise item
+                return
+            yield item  # type: ignore[misc]
+    finally:
+        stop.set()
+        thread.join()
 
 
 def _catch_up(link: Link, sc: Scenario, answered: int, history: History) -> None:

@@ -1,0 +1,51 @@
+"""A real-time run's frames made on a thread of their own, ahead of the loop."""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Iterator
+
+import pytest
+
+from vehil.session import _made_ahead
+
+
+def test_items_come_in_order_and_are_made_ahead_while_the_consumer_waits() -> None:
+    made: list[int] = []
+
+    def items() -> Iterator[int]:
+        for i in range(10):
+            made.append(i)
+            yield i
+
+    it = _made_ahead(items(), depth=4)
+    assert next(it) == 0
+    time.sleep(0.2)  # the consumer busy elsewhere: the maker fills the queue meanwhile
+    assert len(made) >= 5  # the one taken, four queued, perhaps one more waiting to go in
+    assert list(it) == list(range(1, 10))
+
+
+def test_an_error_making_them_is_raised_to_the_consumer_in_its_place() -> None:
+    def items() -> Iterator[int]:
+        yield 1
+        raise ValueError("the plant diverged")
+
+    it = _made_ahead(items(), depth=8)
+    assert next(it) == 1
+    with pytest.raises(ValueError, match="the plant diverged"):
+        next(it)
+
+
+def test_a_consumer_that_stops_early_stops_the_maker() -> None:
+    def endless() -> Iterator[int]:
+        i = 0
+        while True:
+            yield i
+            i += 1
+
+    before = threading.active_count()
+    it = _made_ahead(endless(), depth=2)
+    assert next(it) == 0
+    it.close()  # the loop ended (a board error, say): the thread must not linger
+    assert threading.active_count() == before
