@@ -1110,7 +1110,10 @@ def main(argv: Sequence[str] | None = None) -> int:
 @contextlib.contextmanager
 def _signals_end_the_command() -> Iterator[None]:
     """SIGTERM (a CI job's timeout) and SIGHUP (its terminal gone) stop a command as Ctrl-C
-    does: a run closes its recording, writes its report and stops the board."""
+    does: a run closes its recording, writes its report and stops the board. Ctrl-C's own
+    handler is set here too: a process started in the background by a shell script (`cmd &`)
+    begins with SIGINT ignored, and Python then leaves it ignored, so a SIGINT sent to stop
+    the run would be lost and the run would go on to its end."""
 
     def stop(signum: int, frame: object) -> None:
         raise Terminated(signum)
@@ -1118,7 +1121,12 @@ def _signals_end_the_command() -> Iterator[None]:
     if threading.current_thread() is not threading.main_thread():
         yield
         return
-    before = {n: signal.signal(n, stop) for n in (signal.SIGTERM, signal.SIGHUP)}
+    handlers = {
+        signal.SIGINT: signal.default_int_handler,
+        signal.SIGTERM: stop,
+        signal.SIGHUP: stop,
+    }
+    before = {n: signal.signal(n, handler) for n, handler in handlers.items()}
     try:
         yield
     finally:

@@ -69,7 +69,15 @@ def test_a_board_that_dies_mid_run_fails_the_run_and_keeps_the_recording(tmp_pat
     np.testing.assert_array_equal(rec.data["k"], np.arange(len(rec)))
 
 
+def _ignore_sigint() -> None:
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
 def test_ctrl_c_stops_a_run_cleanly_and_keeps_what_was_recorded(tmp_path, built) -> None:  # noqa: ANN001
+    """Even a run started with SIGINT ignored, as a shell script's `vehil run ... &` starts
+    it (and as pytest itself may be started): vehil sets its own handler."""
     import signal
     import subprocess
     import sys
@@ -81,6 +89,7 @@ def test_ctrl_c_stops_a_run_cleanly_and_keeps_what_was_recorded(tmp_path, built)
         stdout=subprocess.PIPE,
         stderr=subprocess.STDOUT,
         text=True,
+        preexec_fn=_ignore_sigint,
     )
     deadline = time.monotonic() + 60  # a loaded CI machine starts slowly
     while not (out / "run.arrow").exists() and time.monotonic() < deadline:
