@@ -81,6 +81,23 @@ def test_the_plant_satisfies_the_regression_it_feeds() -> None:
     assert 300 < np.sum(s["v"]) * 0.01 < 600  # from rest: ~0.4 km in the first 30 s
 
 
+def test_rolling_resistance_and_sensor_biases_reach_the_regression_as_declared() -> None:
+    """f_roll changes the car, the biases offset v̇ and z, noise_scale scales the sensors'
+    σ (0: exact sensors even with noise = 1)."""
+    run = plants.get("longitudinal").run
+    base = run({"noise": 1, "noise_scale": 0.0}, 10.0, 0.01, 2)
+    off = run({"noise": 1, "noise_scale": 0.0, "v_dot_bias": 0.05, "z_bias": -20.0}, 10.0, 0.01, 2)
+    assert np.allclose(off.signals["v_dot"] - base.signals["v_dot"], 0.05)
+    assert np.allclose(off.signals["z"] - base.signals["z"], -20.0)
+    exact = run({"sigma_n": 0.0}, 10.0, 0.01, 2)
+    assert np.array_equal(base.signals["v"], exact.signals["v"])
+    assert np.array_equal(base.signals["z"], exact.signals["z"])
+    noisy = run({"noise": 1, "noise_scale": 2.0}, 10.0, 0.01, 2)
+    assert np.std(noisy.signals["v"] - exact.signals["v"]) == pytest.approx(0.1, rel=0.1)
+    rolling = run({"f_roll": 0.025, "sigma_n": 0.0}, 10.0, 0.01, 2)
+    assert rolling.truth["v_true"][-1] < exact.truth["v_true"][-1]
+
+
 def _scenario(tmp_path, csv_text: str):  # noqa: ANN001, ANN202
     from vehil import scenario
 

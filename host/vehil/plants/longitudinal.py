@@ -41,8 +41,9 @@ throttle dither (sign flips every 20-40 ms) that the note's addendum found is wh
 the STLQF window system well conditioned. `mass` and `cda` replace Table 1's 1250 kg and 0.48 m²
 (a heavier or draggier car than the shipped drives); `mass_step` kg is added at
 `t_mass` (a trailer or passengers); `noise` = 1 gives realistic sensors (σ 0.05 m/s
-on v, 0.1 m/s² on v̇, 10 N on z) instead of the paper's σ_N on z alone.
-"""
+on v, 0.1 m/s² on v̇, 10 N on z) instead of the paper's σ_N on z alone, each times
+`noise_scale`; `v_dot_bias` and `z_bias` offset those sensors, and `f_roll` replaces
+Table 1's rolling resistance coefficient 0.015 (the estimators assume it through ε)."""
 
 from __future__ import annotations
 
@@ -226,6 +227,7 @@ def _stream(
     noise = NoiseBlocks(rng, n, 3)  # v, v̇, z
     noisy = p["noise"] >= 0.5
     sd_v, sd_a, sd_z = (0.05, 0.1, 10.0) if noisy else (0.0, 0.0, p["sigma_n"])
+    sd_v, sd_a, sd_z = (sd * p["noise_scale"] for sd in (sd_v, sd_a, sd_z))
     cda = p["cda"]
     v, w_e, gear = 0.0, IDLE_RPM * RPM, 0
     prev = None
@@ -246,7 +248,7 @@ def _stream(
             t_b = K_B * p_brake[k] if v > 0 else 0.0
             f_x = (GEARS[gear] * R_FD * t_t - t_b) / R_W  # eq. 5, brake against motion
             resist = 0.5 * cda * RHO * v * v + mass[k] * G * (
-                F_ROLL * np.cos(grade[k]) + np.sin(grade[k])
+                p["f_roll"] * np.cos(grade[k]) + np.sin(grade[k])
             )
             dv = (f_x - resist) / mass[k]
             if v <= 0.0 and dv < 0.0:  # at rest: the brake/static friction holds the car
@@ -260,8 +262,8 @@ def _stream(
             t=t,
             signals={
                 "v": out[:, 0] + noise.normal(0, sd_v, m) * (sd_v > 0),
-                "v_dot": out[:, 1] + noise.normal(1, sd_a, m) * (sd_a > 0),
-                "z": out[:, 2] + noise.normal(2, 1.0, m) * sd_z,
+                "v_dot": out[:, 1] + noise.normal(1, sd_a, m) * (sd_a > 0) + p["v_dot_bias"],
+                "z": out[:, 2] + noise.normal(2, 1.0, m) * sd_z + p["z_bias"],
                 "throttle": throttle,
                 "gear": out[:, 3],
                 "engine_rpm": out[:, 4],
@@ -302,6 +304,10 @@ SPEC = register(
             Param("t_brake", "s", default=1e9, lo=0.0, hi=1e9),
             Param("sigma_n", "N", default=1e-4, lo=0.0, hi=1e3, doc="σ_N on z (eq. 27)"),
             Param("noise", "1", default=0, lo=0, hi=1, doc="1: realistic v, v̇, z sensors"),
+            Param("noise_scale", "1", default=1.0, lo=0.0, hi=100.0, doc="× the sensors' σ"),
+            Param("v_dot_bias", "m/s^2", default=0.0, lo=-2.0, hi=2.0, doc="v̇ sensor bias"),
+            Param("z_bias", "N", default=0.0, lo=-500.0, hi=500.0, doc="z (F_x) sensor bias"),
+            Param("f_roll", "1", default=F_ROLL, lo=0.0, hi=0.05, doc="rolling resistance coeff."),
         ),
         signals=(
             Signal("v", "m/s"),
