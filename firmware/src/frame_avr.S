@@ -12,11 +12,15 @@
 ;
 ; uint8_t frame_tx_run(uint32_t *crc, uint8_t code, const uint8_t *data, uint8_t n)
 ; returns the COBS code of the block so far (1 + its bytes). A zero byte ends the
-; block: its code goes into the placeholder (uart_tx_held) and the zero's place is
-; the next block's placeholder, held back with the rest until uart_tx_close()
-; releases the frame. No block reaches 254 bytes: frames are shorter (frame.c).
+; block: its code goes into the placeholder (uart_tx_held), the zero's place is the
+; next block's placeholder, and everything before it is released to the UDRE
+; interrupt there and then, so a reply starts out while the rest is encoded
+; (uart_tx_close() releases the last block). No block reaches 254 bytes: frames are
+; shorter (frame.c).
 
 #include <avr/io.h>
+
+#include "uart.h"
 
 #define N       r18
 #define CODE    r19
@@ -127,11 +131,20 @@ wait:   rcall   room
         brcs    wait
         rjmp    store
 
-; The zero's place holds the next block's code; this block's goes where it was held.
+; The zero's place holds the next block's code; this block's goes where it was held,
+; and the bytes up to the new placeholder go out. Interrupts off between the release
+; and UDRIE0 on: the UDRE interrupt may send every released byte and turn itself off
+; in between, and it must not come on again with nothing to send.
 zero:   st      Z, BYTE                 ; 0 until the block ends
         lds     r30, uart_tx_held
         sts     uart_tx_held, W
         st      Z, CODE
+        in      r31, _SFR_IO_ADDR(SREG)
+        cli
+        sts     uart_tx_head, W
+        ldi     r30, UART_UCSR0B_ON | (1 << UDRIE0)
+        sts     _SFR_MEM_ADDR(UCSR0B), r30
+        out     _SFR_IO_ADDR(SREG), r31
         inc     W
         ldi     CODE, 1
         rjmp    count
