@@ -30,8 +30,8 @@ void qcar_q_from_f32(qcar_q_t *q, const qcar_f32_t *m, uint8_t *status)
         .s1 = fx_from_float(m->k1 * inv_k, 20, status),
         .s2 = fx_from_float(m->k2 * inv_k, 20, status),
         .s3 = fx_from_float(m->k3 * inv_k, 20, status),
-        .r_c1 = fx_factor(m->c1 * inv_k, 4, status),
-        .r_c2 = fx_factor(m->c2 * inv_k, 4, status),
+        .d1 = fx_from_float(m->c1 * inv_k, 24, status),
+        .d2 = fx_from_float(m->c2 * inv_k, 28, status),
     };
 }
 
@@ -49,15 +49,16 @@ int32_t qcar_strut_nl_q(const qcar_q_t *m, int32_t dx, int32_t dv, uint8_t *stat
     return fx_add(fx_mul(k, 8, dx2, 28, 16, status), fx_mul_f(dv2, m->c2, status), status);
 }
 
-/* x (q_in) to q_out in an int16, rounded, saturated (flagged). */
-static int16_t to_int16(int32_t x, uint8_t q_in, uint8_t q_out, uint8_t *status)
+/* x 2^-12 rounded half up, in an int16 (saturated, flagged): bits 12..27 of x + 2^11 by
+ * 16-bit nibble shifts, where a 32-bit shift by 12 is a loop on the AVR. */
+static int16_t drop12_int16(int32_t x, uint8_t *status)
 {
-    int32_t r = fx_rescale(x, q_in, q_out, status);
-    if (r > INT16_MAX || r < INT16_MIN) {
+    if (x >= ((int32_t)1 << 27) - 2048 || x < -((int32_t)1 << 27) - 2048) {
         *status |= STATUS_SATURATED;
-        return r < 0 ? INT16_MIN : INT16_MAX;
+        return x < 0 ? INT16_MIN : INT16_MAX;
     }
-    return (int16_t)r;
+    uint32_t t = (uint32_t)x + 2048u;
+    return (int16_t)(((uint16_t)(t >> 16) << 4) | ((uint16_t)t >> 12));
 }
 
 /* round(p x 2^-16), half up on p |x| with x's sign then applied: below 2^30, no saturation. */
@@ -70,15 +71,13 @@ static int32_t times_x16(int32_t p, int16_t x)
 
 int32_t qcar_strut_over_kus_q(const qcar_q_t *m, int32_t dx, int32_t dv, uint8_t *status)
 {
-    int16_t x = to_int16(dx, 28, 16, status); /* m Q16 */
-    int16_t v = to_int16(dv, 24, 12, status); /* m/s Q12 */
-    /* (k1 + Δx (k2 + k3 Δx)) Δx / k_us, Q20 throughout (|Δx| <= 1/2 keeps each sum below
-     * 550), then to Q28 */
+    int16_t x = drop12_int16(dx, status); /* m Q28 -> Q16 */
+    int16_t v = drop12_int16(dv, status); /* m/s Q24 -> Q12 */
+    /* (k1 + Δx (k2 + k3 Δx)) Δx / k_us in Q20 (|Δx| <= 1/2 keeps each sum below 550) and
+     * (c1 + c2 Δẋ) Δẋ / k_us, the sum in Q24 (below 18 for |Δẋ| <= 8), then Q20 */
     int32_t p = fx_add(m->s2, times_x16(m->s3, x), status);
     p = fx_add(m->s1, times_x16(p, x), status);
-    int32_t spring = fx_rescale(times_x16(p, x), 20, 28, status);
-    uint16_t v_abs = (uint16_t)(v < 0 ? -(int32_t)v : v);
-    int32_t v2 = (int32_t)fx_umul16x16(v_abs, v_abs); /* Δẋ² Q24, below 2^30 */
-    int32_t damper = fx_add(fx_mul_f(dv, m->r_c1, status), fx_mul_f(v2, m->r_c2, status), status);
-    return fx_add(spring, damper, status);
+    int32_t d = fx_add(m->d1, times_x16(m->d2, v), status);
+    int32_t strut = fx_add(times_x16(p, x), times_x16(d, v), status);
+    return fx_rescale(strut, 20, 28, status);
 }

@@ -20,14 +20,14 @@ typedef struct {
  * from Δx Q28 to Q8 and from Δẋ² Q24 to N Q16; the masses as 1/m from N Q16 to m/s² Q20;
  * the tire's equation over k_us: m_us/k_us, m_s/k_us as factors from F̂ Q20 to metres Q28,
  * and the whole strut over k_us (qcar_strut_over_kus_q): the spring's k1, k2, k3 over k_us
- * in Q20 (at most 100, 500 and 800 over the parameters' ranges: ±2,048), c1/k_us a factor
- * from Δẋ Q24 to Q28 and c2/k_us one from Δẋ² Q24 to Q28. */
+ * in Q20 (at most 100, 500 and 800 over the parameters' ranges: ±2,048), the damper's c1,
+ * c2 over k_us in Q24 and Q28 (at most 2 s and 2 s²/m). */
 typedef struct {
     int32_t k2;
     fx_factor_t k3, c2, inv_m_s, inv_m_us;
     fx_factor_t r_m_us, r_m_s;
-    int32_t s1, s2, s3;    /* k1/k_us (1/m^0), k2/k_us (1/m), k3/k_us (1/m²), Q20 */
-    fx_factor_t r_c1, r_c2; /* c1/k_us, c2/k_us */
+    int32_t s1, s2, s3; /* k1/k_us, k2/k_us (1/m), k3/k_us (1/m²), Q20 */
+    int32_t d1, d2;     /* c1/k_us (s) Q24, c2/k_us (s²/m) Q28 */
 } qcar_q_t;
 
 extern const ROM param_range_t qcar_ranges[QCAR_N_PARAMS];
@@ -40,9 +40,9 @@ void qcar_q_from_f32(qcar_q_t *q, const qcar_f32_t *m, uint8_t *status);
 float qcar_strut_f32(const qcar_f32_t *m, float dx, float dv, uint8_t nonlinear_only);
 /* k2 Δx² + k3 Δx³ + c2 Δẋ² in fixed point: dx Q28 (m), dv Q24 (m/s) -> N Q16. */
 int32_t qcar_strut_nl_q(const qcar_q_t *m, int32_t dx, int32_t dv, uint8_t *status);
-/* (f_s + f_d)/k_us, the whole strut over the tire's rate, in metres Q28: the spring by
- * Horner's rule on Δx to 16 bits (Q16, ±0.5 m), the damper on Δẋ Q24 and its square from
- * Δẋ to 16 bits (Q12, ±8 m/s); Δx or Δẋ past those ranges saturates (flagged). */
+/* (f_s + f_d)/k_us, the whole strut over the tire's rate, in metres Q28: the spring and
+ * the damper by Horner's rule on Δx and Δẋ to 16 bits (Q16, ±0.5 m; Q12, ±8 m/s); Δx or
+ * Δẋ past those ranges saturates (flagged). */
 int32_t qcar_strut_over_kus_q(const qcar_q_t *m, int32_t dx, int32_t dv, uint8_t *status);
 
 #endif
