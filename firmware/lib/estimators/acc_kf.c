@@ -32,9 +32,10 @@ static void reset_f32(acc_kf_params_f32_t *p, acc_kf_f32_t *s)
 
 static float lpf_f32(const acc_kf_params_f32_t *p, acc_kf_f32_t *s, float a_m)
 {
-    /* Eq. 4b, 2nd order. */
-    float a_f = p->b[0] * a_m + p->b[1] * s->am[0] + p->b[2] * s->am[1] + p->c[0] * s->af[0] +
-                p->c[1] * s->af[1];
+    /* Eq. 4b, 2nd order; the Butterworth's b are b0 (1, 2, 1): one product */
+    float a_f = p->lpf_on ? p->b0 * ((a_m + s->am[1]) + (s->am[0] + s->am[0])) +
+                                p->c[0] * s->af[0] + p->c[1] * s->af[1]
+                          : a_m;
     s->am[1] = s->am[0];
     s->am[0] = a_m;
     s->af[1] = s->af[0];
@@ -65,25 +66,34 @@ static uint8_t step_f32(acc_kf_state_t *st, const uint8_t *in, uint8_t *out)
             float w2 = st->corr1 ? s->w2_prev : 0.0f;
             float v_pred = s->v + T * (s->u_prev - s->a0);
             float b_pred = s->a0 + w2;
-            float m11 = s->p11 - 2.0f * T * s->p12 + T * T * s->p22 + p->q_v;
             float m12 = s->p12 - T * s->p22;
+            float m11 = s->p11 - T * (s->p12 + m12) + p->q_v; /* 2 P12 - T P22 = P12 + M12 */
             float m22 = s->p22 + p->q_b;
-            float c = (braking && st->corr2) ? 1.0f - s->slip : 1.0f; /* eq. 8 */
-            float cm11 = c * m11, cm12 = c * m12;
-            float inv_s = 1.0f / (c * cm11 + p->R);
+            /* c = 1 - slip (eq. 8); c = 1 multiplies exactly, so those steps skip c's
+             * products */
+            float cm11 = m11, cm12 = m12, c2m11 = m11, c_v_pred = v_pred;
+            if (braking && st->corr2 && s->slip != 0.0f) {
+                float c = 1.0f - s->slip;
+                cm11 = c * m11;
+                cm12 = c * m12;
+                c2m11 = c * cm11;
+                c_v_pred = c * v_pred;
+            }
+            float inv_s = 1.0f / (c2m11 + p->R);
             float k1 = cm11 * inv_s, k2 = cm12 * inv_s;
-            float e = v_m - c * v_pred;
+            float e = v_m - c_v_pred;
             s->v = v_pred + k1 * e;
             s->a0 = b_pred + k2 * e;
-            s->p11 = m11 - k1 * cm11;
-            s->p12 = m12 - k1 * cm12;
+            float g = p->R * inv_s; /* 1 - c k1: P11 - k1 c M11 = M11 g, P12 alike */
+            s->p11 = m11 * g;
+            s->p12 = m12 * g;
             s->p22 = m22 - k2 * cm12;
             /* Health (docs/estimators/acc_kf.md): the windowed NIS, v̂ within 3σ of [-v_guard,
              * v_max] (near standstill the filter is not held to its speed). */
             s->nis += p->alpha * (e * e * inv_s - s->nis);
             float out_v = s->v < -p->v_guard ? s->v + p->v_guard
                                                  : (s->v > p->v_max ? s->v - p->v_max : 0.0f);
-            if (s->nis > p->nis_max || out_v * out_v > 9.0f * s->p11) {
+            if (s->nis > p->nis_max || (out_v != 0.0f && out_v * out_v > 9.0f * s->p11)) {
                 status |= STATUS_DIVERGED;
             }
             if (st->corr1) { /* a_f serves correction 1 alone */
@@ -120,25 +130,29 @@ static void reset_q(acc_kf_params_q_t *p, acc_kf_q_t *s)
 
 static int32_t lpf_q(const acc_kf_params_q_t *p, acc_kf_q_t *s, int32_t a_m, uint8_t *st)
 {
-    /* Eq. 4b, Q29 coefficients times Q24 samples, each product rounded to Q24. The
-     * Butterworth's b are b0 (1, 2, 1): one product of 4 b0 by the samples' quarter sum,
-     * floor((a_m + 2 a_m(k-1) + a_m(k-2)) / 4) exact in int32 (its floor, at most 3/4 of
-     * a Q24 unit, offsets a_f by a constant that eq. 6's difference cancels). */
+    /* Eq. 4b, the Butterworth's b0 (1, 2, 1) times the samples' quarter sum q = a_m / 4 +
+     * a_m(k-1) / 2 + a_m(k-2) / 4, each quarter kept floored (an error below one Q24 unit,
+     * 6e-8 m/s², far under any accelerometer's noise). With its unit DC gain,
+     * 1 - c1 - c2 = 4 b0, the step is a_f(k-1) + 4 b0 (q - a_f(k-1)) - c2 (a_f(k-1) -
+     * a_f(k-2)), the last difference a_f's last increment: two products by 16-bit factors, whose rounding moves the poles by 2^-17
+     * and leaves the DC gain exactly 1 (docs/estimators/acc_kf.md). Returns a_f's
+     * increment, eq. 6's difference. */
+    int32_t af1 = s->af;
     int32_t a_f = a_m; /* lpf_hz = 0: a_f = a_m */
+    int32_t inc;
+    int32_t a4 = a_m >> 2;
     if (p->lpf_on) {
-        int32_t x1 = s->am[0], x2 = s->am[1];
-        int32_t quarter = (a_m >> 2) + (x1 >> 1) + (x2 >> 2) +
-                          ((int32_t)((a_m & 3) + ((x1 & 1) << 1) + (x2 & 3)) >> 2);
-        a_f = fx_add(fx_mul_rs(p->b4, quarter, 29, st),
-                     fx_add(fx_mul_rs(p->c[0], s->af[0], 29, st),
-                            fx_mul_rs(p->c[1], s->af[1], 29, st), st),
-                     st);
+        int32_t quarter = a4 + s->am4[0] + s->am4[0] + s->am4[1]; /* no overflow: < 2^31 */
+        inc = fx_add(fx_mul_f(fx_sub(quarter, af1, st), p->b4, st), fx_smul_f(s->daf, p->a2), st);
+        a_f = fx_add(af1, inc, st);
+    } else {
+        inc = fx_sub(a_m, af1, st);
     }
-    s->am[1] = s->am[0];
-    s->am[0] = a_m;
-    s->af[1] = s->af[0];
-    s->af[0] = a_f;
-    return a_f;
+    s->am4[1] = s->am4[0];
+    s->am4[0] = a4;
+    s->af = a_f;
+    s->daf = inc;
+    return inc;
 }
 
 /* x 2^d for a quotient's numerator (d < 0: rounded half up, x's last -d bits dropped);
@@ -174,33 +188,96 @@ static int32_t quotient(int32_t x, fx_recip_t r, int8_t d, uint8_t *status)
     return fx_mul_rs(xs, r.y, 26, status);
 }
 
-/* x 2^u r 2^-16 for |x| <= lim = INT32_MAX 2^-u, saturated (flagged) beyond. */
-static int32_t scaled_gain(int32_t x, uint8_t u, int32_t lim, uint16_t r, uint8_t *status)
+/* A gain x / S (x in Q28, S in Q24 from its 16-bit reciprocal r 2^(n - 46)) to 16 bits:
+ * x's leading 16 bits, rounded, times r, rounded to 16 bits again: x / S = ±m 2^-sh with
+ * m in [2^15, 2^16), relative error < 1e-4 (r's 5e-5 and two roundings: a gain needs no
+ * more than the 16 bits r gives it, docs/estimators/acc_kf.md). gain_factor checks sh
+ * against the kernel's range. */
+typedef struct {
+    uint16_t m;
+    int16_t sh;
+    uint8_t neg;  /* 0x80 for a negative gain: fx_factor_t's sign bit */
+    uint16_t top; /* |x| ~ top 2^e, top in [2^15, 2^16) (0 for x = 0) */
+    int8_t e;
+} gain_t;
+
+static inline __attribute__((always_inline)) gain_t gain(int32_t x, fx_recip16_t r)
 {
-    if (x > lim || x < -lim - 1) {
-        *status |= STATUS_SATURATED;
-        return x < 0 ? FX_MIN : FX_MAX;
+    uint8_t neg = x < 0 ? 0x80u : 0u;
+    uint32_t a = neg ? 0u - (uint32_t)x : (uint32_t)x;
+    if (a == 0u) {
+        return (gain_t){0, 16, 0, 0, 0};
     }
-    return fx_smul_f((int32_t)fx_shl32((uint32_t)x, u), (fx_ufactor_t){r, 16});
+    /* a's top bit to bit 31, by words and bytes first (the AVR shifts an int32 a bit at a
+     * time): x = a 2^(e - 16) */
+    int8_t e = 16;
+    if (!(a >> 16)) {
+        a <<= 16;
+        e = 0;
+    }
+    if (!(a >> 24)) {
+        a <<= 8;
+        e = (int8_t)(e - 8);
+    }
+    while (!(a & 0x80000000u)) {
+        a <<= 1;
+        e--;
+    }
+    uint16_t top = (uint16_t)(a >> 16); /* x ~ top 2^e, rounded by a's bit 15 */
+    if ((uint8_t)(a >> 8) & 0x80u) {
+        top++;
+        if (top == 0u) {
+            top = 0x8000u;
+            e++;
+        }
+    }
+    /* x / S = top r 2^(e + n - 50), top r in [2^30, 2^32) */
+    uint32_t prod = fx_umul16x16(top, r.r);
+    int16_t sh = (int16_t)(34 - e - (int8_t)r.n);
+    if (prod >= UINT32_C(0x7fffc000)) { /* (prod + 2^15) 2^-16 <= 0xfffe */
+        return (gain_t){(uint16_t)((prod + 0x8000u) >> 16), sh, neg, top, e};
+    }
+    /* (prod + 2^14) 2^-15 as a one-bit shift up and a word: < 2^31, no carry out */
+    return (gain_t){(uint16_t)(((prod + 0x4000u) << 1) >> 16), (int16_t)(sh + 1), neg, top, e};
 }
 
-/* The gains k1 = c M11 / S and k2 = c M12 / S (Q28 / Q24 -> Q30) from S's 16-bit
- * reciprocal r 2^(n - 46): x 2^(n - 4) times r 2^-16 (fx_smul_f), the numerators' shift
- * and its limit shared; saturated (flagged) past int32. */
-static void gains(int32_t cm11, int32_t cm12, fx_recip16_t r, int32_t *k1, int32_t *k2,
-                  uint8_t *status)
+/* k x in Q30 for the gain k = x / S that gain() made from x (Q28): one 16 x 16 product of
+ * their mantissas (relative error < 1e-4, k's own), >= 0 as k and x have one sign;
+ * saturated (flagged) past int32. */
+static int32_t gain_times_x(gain_t k, uint8_t *status)
 {
-    int8_t d = (int8_t)(r.n - 4);
-    if (d >= 0) {
-        uint8_t u = (uint8_t)d;
-        int32_t lim = u > 30u ? 0 : (int32_t)fx_shr32((uint32_t)FX_MAX, u);
-        *k1 = scaled_gain(cm11, u, lim, r.r, status);
-        *k2 = scaled_gain(cm12, u, lim, r.r, status);
-    } else { /* S >= 2^26 in Q24: a right shift, nothing saturates */
-        uint8_t over = 0;
-        *k1 = fx_smul_f(numerator(cm11, d, &over), (fx_ufactor_t){r.r, 16});
-        *k2 = fx_smul_f(numerator(cm12, d, &over), (fx_ufactor_t){r.r, 16});
+    uint32_t prod = fx_umul16x16(k.m, k.top);
+    int16_t s = (int16_t)(k.sh - k.e - 2); /* k x = prod 2^(e - 28 - sh), Q30 */
+    if (s > 32) {
+        return 0;
     }
+    if (s >= 1) {
+        uint32_t x = (fx_shr32(prod, (uint8_t)(s - 1)) + 1u) >> 1; /* rounded half up */
+        if (x <= (uint32_t)FX_MAX) {
+            return (int32_t)x;
+        }
+    }
+    if (prod == 0u) {
+        return 0;
+    }
+    *status |= STATUS_SATURATED;
+    return FX_MAX;
+}
+
+/* The gain times 2^up as a factor for fx_mul_f: below 2^-32 it is 0; at 2^16 / 2^9 = 128
+ * or past it the largest factor, flagged SATURATED (a gain that large is outside the
+ * parameters' physics: k1 <= 1 / c). */
+static fx_factor_t gain_factor(gain_t k, uint8_t up, uint8_t *status)
+{
+    int16_t sh = (int16_t)(k.sh - up);
+    if (k.m == 0u || sh > 47) {
+        return (fx_factor_t){0, 16};
+    }
+    if (sh < 9) {
+        *status |= STATUS_SATURATED;
+        return (fx_factor_t){0xffffu, (uint8_t)(9u | k.neg)};
+    }
+    return (fx_factor_t){k.m, (uint8_t)((uint8_t)sh | k.neg)};
 }
 
 /* R / S as a 16-bit factor (in (0, 1)): R's mantissa at CONFIG (R 2^-7 = m 2^-sh) times
@@ -229,18 +306,15 @@ static fx_ufactor_t recip_times_r(const acc_kf_params_q_t *p, fx_recip16_t inv_s
  * (p_steady), every later step with c = 1 would compute the same gains and the same P,
  * so step_q reuses them; the bits are those of the full recursion (the steady state of
  * a time-invariant filter, reached in fixed point; docs/estimators/acc_kf.md). */
-static void covariance_q(const acc_kf_params_q_t *p, acc_kf_q_t *s, int32_t c, uint8_t unit_c)
+static __attribute__((noinline)) void covariance_q(const acc_kf_params_q_t *p, acc_kf_q_t *s, int32_t c, uint8_t unit_c)
 {
     uint8_t status = 0;
     /* M = A P Aᵀ + Q (P11, P12 Q28; P22 Q30): M11 = P11 - T (2 P12 - T P22) + Q11, two
      * products by T to 16 bits (relative error <= 2^-16: a covariance's rounding) */
-    int32_t t_p22 = fx_smul_f(s->p22, p->T_q28); /* Q28 */
-    int32_t m11 = fx_add(fx_sub(s->p11,
-                                fx_smul_f(fx_sub(fx_add(s->p12, s->p12, &status), t_p22, &status),
-                                          p->T_f),
-                                &status),
+    int32_t m12 = fx_sub(s->p12, fx_smul_f(s->p22, p->T_q28), &status); /* Q28 */
+    /* 2 P12 - T P22 = P12 + M12 */
+    int32_t m11 = fx_add(fx_sub(s->p11, fx_smul_f(fx_add(s->p12, m12, &status), p->T_f), &status),
                          p->q_v, &status);
-    int32_t m12 = fx_sub(s->p12, t_p22, &status);
     int32_t m22 = fx_add(s->p22, p->q_b, &status);
     int32_t cm11 = m11, cm12 = m12;
     int32_t c2m11 = ((m11 >> 3) + 1) >> 1; /* Q24, rounded half up (no overflow) */
@@ -250,18 +324,21 @@ static void covariance_q(const acc_kf_params_q_t *p, acc_kf_q_t *s, int32_t c, u
         c2m11 = fx_mul(c, 30, cm11, 28, 24, &status);
     }
     int32_t S = fx_add(c2m11, p->R, &status); /* Q24 */
-    int32_t k1 = 0, k2 = 0, p11 = m11, p12 = m12, p22 = m22;
+    int32_t p11 = m11, p12 = m12, p22 = m22;
+    fx_factor_t kv = {0, 16}, ka = {0, 16};
     uint16_t g16 = 0x8000u; /* no update if S is not positive (it is R > 0 or more) */
     if (S > 0) {
         /* the gains and P to 16 bits of 1/S (relative error < 5e-5: a covariance's
          * rounding, docs/estimators/acc_kf.md): P11 - k1 c M11 = M11 g and P12 - k1 c M12
-         * = M12 g with g = 1 - c k1 = R / S */
+         * = M12 g with g = 1 - c k1 = R / S; k2 c M12 from 16-bit mantissas */
         fx_recip16_t inv_s = fx_recip16(S);
-        gains(cm11, cm12, inv_s, &k1, &k2, &status); /* Q30; k2 in 1/s */
+        gain_t k2 = gain(cm12, inv_s);
+        kv = gain_factor(gain(cm11, inv_s), 0, &status); /* k1: Q20 e -> Q20 v */
+        ka = gain_factor(k2, 4, &status);                /* k2 (1/s): Q20 e -> Q24 a0 */
         fx_ufactor_t g = recip_times_r(p, inv_s);
         p11 = fx_smul_f(m11, g);
         p12 = fx_smul_f(m12, g);
-        p22 = fx_sub(m22, fx_mul(k2, 30, cm12, 28, 30, &status), &status);
+        p22 = fx_sub(m22, gain_times_x(k2, &status), &status);
         g16 = (uint16_t)fx_shr32(g.m, (uint8_t)(g.sh - 15u)); /* Q15 */
     } else {
         status |= STATUS_SINGULAR;
@@ -270,8 +347,8 @@ static void covariance_q(const acc_kf_params_q_t *p, acc_kf_q_t *s, int32_t c, u
     s->p11 = p11;
     s->p12 = p12;
     s->p22 = p22;
-    s->k1 = k1;
-    s->k2 = k2;
+    s->kv = kv;
+    s->ka = ka;
     s->g16 = g16;
     s->p_status = status;
 }
@@ -313,13 +390,15 @@ static uint8_t step_q(acc_kf_state_t *st, const uint8_t *in, uint8_t *out)
     uint8_t status = 0;
     int32_t w_sum = fx_add(get_i32(in + 4), get_i32(in + 8), &status); /* Q16 */
     uint8_t braking = get_i32(in + 12) != 0;
-    int32_t v_m = fx_mul(w_sum, 16, p->r_w_half, 24, 20, &status); /* Q20, eq. 3 */
+    int32_t v_m = fx_mul(w_sum, 16, p->r_w_half, 28, 20, &status); /* Q20, eq. 3 */
     if (!st->started) {
         st->started = 1;
         s->v = v_m;
         s->a0 = 0;
         s->u_prev = a_m;
-        s->am[0] = s->am[1] = s->af[0] = s->af[1] = a_m;
+        s->am4[0] = s->am4[1] = a_m >> 2;
+        s->af = a_m;
+        s->daf = 0;
     } else {
         int32_t T = p->T;
         int32_t w2 = st->corr1 ? s->w2_prev : 0;
@@ -336,14 +415,12 @@ static uint8_t step_q(acc_kf_state_t *st, const uint8_t *in, uint8_t *out)
         }
         status |= s->p_status;
         int32_t c_v_pred = unit_c ? v_pred : fx_mul(c, 30, v_pred, 20, 20, &status);
-        int32_t k1 = s->k1, k2 = s->k2;
         int32_t e = fx_sub(v_m, c_v_pred, &status); /* Q20 */
-        s->v = fx_add(v_pred, fx_mul(k1, 30, e, 20, 20, &status), &status);
-        s->a0 = fx_add(b_pred, fx_mul(k2, 30, e, 20, 24, &status), &status);
+        s->v = fx_add(v_pred, fx_mul_f(e, s->kv, &status), &status);
+        s->a0 = fx_add(b_pred, fx_mul_f(e, s->ka, &status), &status);
         status |= health_q(p, s, e);
-        if (st->corr1) { /* a_f serves correction 1 alone */
-            int32_t a_f = lpf_q(p, s, a_m, &status);
-            s->w2_prev = fx_mul(p->rbar, 30, fx_sub(a_f, s->af[1], &status), 24, 24, &status);
+        if (st->corr1) { /* a_f serves correction 1 alone; eq. 6 with r̄ to 16 bits */
+            s->w2_prev = fx_mul_f(lpf_q(p, s, a_m, &status), p->rbar, &status);
         }
         if (braking && s->v > p->v_guard) {
             fx_recip_t inv_v = fx_recip(s->v); /* s->v > v_guard > 0 */
@@ -359,7 +436,7 @@ static uint8_t step_q(acc_kf_state_t *st, const uint8_t *in, uint8_t *out)
         }
         s->u_prev = a_m;
     }
-    put_i32(out, fx_rescale(s->v, 20, 16, &status));
+    put_i32(out, ((s->v >> 3) + 1) >> 1); /* Q20 -> Q16, rounded half up */
     put_i32(out + 4, s->a0);
     return status;
 }
@@ -380,7 +457,8 @@ static void acc_kf_reset(void *state)
 /* The step's numbers from the physical parameters and T, in float32 for either mode
  * (only IEEE operations, so the AVR and the host derive the same bits). */
 typedef struct {
-    float q_v, q_b, b[3], c[2];
+    float q_v, q_b, b0, c[2]; /* eq. 4b: b = b0 (1, 2, 1) */
+    uint8_t lpf_on;           /* lpf_hz > 0 (else a_f = a_m) */
 } per_step_t;
 
 static uint8_t derive(const uint8_t *params, uint8_t mode, per_step_t *d)
@@ -394,9 +472,9 @@ static uint8_t derive(const uint8_t *params, uint8_t mode, per_step_t *d)
     float q_b = param_value(params, P_NB, mode, 30) * T;
     if (fc > 0.0f) {
         biquad_f32_t lp = butter2_lp(fc, T);
-        *d = (per_step_t){q_v, q_b, {lp.b0, lp.b1, lp.b0}, {-lp.a1, -lp.a2}};
+        *d = (per_step_t){q_v, q_b, lp.b0, {-lp.a1, -lp.a2}, 1};
     } else {
-        *d = (per_step_t){q_v, q_b, {1.0f, 0.0f, 0.0f}, {0.0f, 0.0f}}; /* a_f = a_m */
+        *d = (per_step_t){q_v, q_b, 0.0f, {0.0f, 0.0f}, 0};
     }
     return 0;
 }
@@ -430,9 +508,8 @@ static uint8_t acc_kf_configure(void *state, uint8_t mode, const uint8_t *params
         p->alpha = p->T / get_f32(params + 4u * P_NISWIN);
         p->nis_max = get_f32(params + 4u * P_NISMAX);
         p->v_max = get_f32(params + 4u * P_VMAX);
-        for (uint8_t i = 0; i < 3u; i++) {
-            p->b[i] = d.b[i];
-        }
+        p->lpf_on = d.lpf_on;
+        p->b0 = d.b0;
         for (uint8_t i = 0; i < 2u; i++) {
             p->c[i] = d.c[i];
         }
@@ -442,14 +519,14 @@ static uint8_t acc_kf_configure(void *state, uint8_t mode, const uint8_t *params
         p->T = param_q(params, P_T);
         p->T_f = fx_ufactor((uint32_t)p->T, 30);
         p->T_q28 = (fx_ufactor_t){p->T_f.m, (uint8_t)(p->T_f.sh + 2u)}; /* T P22 to Q28 */
-        p->r_w_half = param_q(params, P_RW) / 2; /* Q24; the radius is positive */
+        p->r_w_half = (int32_t)((uint32_t)param_q(params, P_RW) << 3); /* Q24 -> r_w / 2 in Q28 */
         p->q_v = fx_from_float(d.q_v, 28, &sat);
         p->q_b = fx_from_float(d.q_b, 30, &sat);
         p->R = param_q(params, P_R);
         p->R_f = fx_ufactor((uint32_t)p->R, 31); /* R 2^-7 < 1 */
         p->p0_v = fx_rescale(param_q(params, P_P0V), 24, 28, &sat);
         p->p0_b = param_q(params, P_P0B);
-        p->rbar = param_q(params, P_RBAR);
+        p->rbar = fx_factor(param_value(params, P_RBAR, mode, 30), 0, &sat);
         p->v_guard = fx_rescale(param_q(params, P_VG), 16, 20, &sat);
         p->s_max = param_q(params, P_SMAX);
         float T = param_value(params, P_T, mode, 30);
@@ -464,11 +541,9 @@ static uint8_t acc_kf_configure(void *state, uint8_t mode, const uint8_t *params
         float alpha = T / param_value(params, P_NISWIN, mode, 24); /* <= 1 */
         p->alpha = fx_ufactor((uint32_t)fx_from_float(alpha < 1.0f ? alpha : 0.99999f, 30, &sat), 30);
         p->v_max = fx_rescale(param_q(params, P_VMAX), 16, 20, &sat);
-        p->lpf_on = param_value(params, P_LPF, mode, 24) > 0.0f;
-        p->b4 = fx_from_float(4.0f * d.b[0], 29, &sat);
-        for (uint8_t i = 0; i < 2u; i++) {
-            p->c[i] = fx_from_float(d.c[i], 29, &sat);
-        }
+        p->lpf_on = d.lpf_on;
+        p->b4 = fx_factor(4.0f * d.b0, 0, &sat);
+        p->a2 = fx_ufactor((uint32_t)fx_from_float(-d.c[1], 31, &sat), 31); /* in [0, 1) */
     }
     acc_kf_reset(st);
     return 0;

@@ -28,7 +28,8 @@
 typedef struct {
     float T, r_w_half, q_v, q_b, R, p0_v, p0_b, rbar, v_guard, s_max;
     float alpha, nis_max, v_max; /* health: T / nis_window, ... */
-    float b[3], c[2];
+    float b0, c[2];       /* eq. 4b: b = b0 (1, 2, 1) */
+    uint8_t lpf_on;       /* lpf_hz > 0 (else a_f = a_m) */
 } acc_kf_params_f32_t;
 
 typedef struct {
@@ -44,17 +45,18 @@ typedef struct {
     int32_t T;            /* Q30 */
     fx_ufactor_t T_f;     /* T to 16 bits, and T_q28: T 2^-2 (T P22 from Q30 to Q28) */
     fx_ufactor_t T_q28;
-    int32_t r_w_half;     /* Q24 */
+    int32_t r_w_half;     /* Q28 (a byte-aligned product shift for v_m) */
     int32_t q_v;          /* Q28 */
     int32_t q_b;          /* Q30 */
     int32_t R;            /* Q24 */
     fx_ufactor_t R_f;     /* R 2^-7 to 16 bits */
     int32_t p0_v;         /* Q28 */
     int32_t p0_b;         /* Q30 */
-    int32_t rbar;         /* Q30 */
+    fx_factor_t rbar;     /* r̄ to 16 bits (eq. 6's Q24 -> Q24 product) */
     int32_t v_guard;      /* Q20 */
     int32_t s_max;        /* Q30 */
-    int32_t b4, c[2];     /* Q29: 4 b0 (b = b0 (1, 2, 1)), c1, c2 */
+    fx_factor_t b4;       /* 4 b0 (b = b0 (1, 2, 1)) to 16 bits */
+    fx_ufactor_t a2;      /* -c2 in (0, 1) to 16 bits */
     uint8_t lpf_on;       /* lpf_hz > 0 (else a_f = a_m) */
     fx_ufactor_t alpha;   /* T / nis_window to 16 bits */
     uint8_t e_shift;      /* 20 - q_e: e from Q20 to the health check's Q q_e */
@@ -70,8 +72,9 @@ typedef struct {
     int32_t u_prev;       /* Q24 */
     int32_t w2_prev;      /* Q24 */
     int32_t slip;         /* Q30 */
-    int32_t am[2], af[2]; /* Q24 */
-    int32_t k1, k2;       /* Q30: the last gains */
+    int32_t am4[2];       /* Q24: a_m(k-1) / 4, a_m(k-2) / 4, floored */
+    int32_t af, daf;      /* Q24: a_f(k-1), and its increment a_f(k-1) - a_f(k-2) */
+    fx_factor_t kv, ka;   /* the last gains k1 (Q20 -> Q20) and k2 2^4 (Q20 -> Q24) */
     uint16_t g16;         /* Q15: 1 - c k1 = R / S */
     uint32_t nis_r;       /* Q(2 q_e): R e²/S averaged, (m/s)² */
     uint8_t p_steady;     /* the last update, with c = 1, left P unchanged */
