@@ -123,6 +123,7 @@ LONGER = {
     "mismatch-iso-c60-kfui": 3.0,  # a quarter car the KF-UI does not know
     "mismatch-bumps30-eso-tuned-fixed": 1.0,
     "s1-dlc80-ekf3-hifi": 1.0,  # an EV the EKF does not know
+    "s1-dlc80-ekf3-suv": 1.0,  # an EV the EKF is given: its tire terms' general forms
     "paper-dither": 15.0,
     "rls-flat-steps": 20.0,
     "rls-flat-steps-fixed": 20.0,  # bit-exact with the native build
@@ -148,6 +149,7 @@ ON_QEMU = {
     "mass-step": 3.0,
     "s5-iso-active-eso-fixed": 1.0,
     "s1-dlc80-ekf3-linear": 1.0,
+    "s1-dlc80-ekf3-suv": 0.5,
     "s2-sine80-ekf": 0.3,
     "s6-sine100-low-mu-ukf": 1.0,
 }

@@ -1,5 +1,6 @@
 """Seed 001's references (float64): the EV model, EKF, UKF, UPF and the adaptive R."""
 
+import dataclasses
 import math
 
 import numpy as np
@@ -61,18 +62,27 @@ def test_sigma_points_reproduce_mean_and_covariance(n, alpha) -> None:  # noqa: 
     np.testing.assert_allclose((wc[:, None] * d).T @ d, P, rtol=1e-6, atol=1e-6)
 
 
-def test_the_jacobians_match_finite_differences(lane_change) -> None:  # noqa: ANN001
+# The shipped car, and one whose every tire shape term leaves its default (E_y ≠ 0, the
+# combined-slip C ≠ 1, B_xα ≠ B_y): the slopes' general forms.
+OTHER_TIRES = dataclasses.replace(
+    ev.SHIPPED, m=2300.0, i_z=4200.0, e_y=-0.8, c_xa=0.8, c_yk=0.7, b_xa=7.0, b_yk=12.0
+)
+
+
+@pytest.mark.parametrize("car", [ev.SHIPPED, OTHER_TIRES], ids=["shipped", "other-tires"])
+def test_the_jacobians_match_finite_differences(lane_change, car) -> None:  # noqa: ANN001
     z, _ = lane_change
-    pre = ev.Preprocess(0.01)
+    pre = ev.Preprocess(0.01, car)
     for k in range(600):  # mid manoeuvre
         u = pre(z[k])
     x = np.array([22.0, 0.3, 0.15, 1500.0, 1200.0, 900.0, 800.0])
-    F, H = ev.jacobians(x, u, 0.85, 0.01)
+    F, H = ev.jacobians(x, u, car, 0.85, 0.01)
     for j in range(7):
         dx = np.zeros(7)
         dx[j] = 1e-6 * max(1.0, abs(x[j]))
-        fd_f = (ev.step(x + dx, u, 0.85, 0.01) - ev.step(x - dx, u, 0.85, 0.01)) / (2 * dx[j])
-        fd_h = (ev.h(x + dx, u, 0.85) - ev.h(x - dx, u, 0.85)) / (2 * dx[j])
+        up, down = (ev.step(x + sg * dx, u, car, 0.85, 0.01) for sg in (1, -1))
+        fd_f = (up - down) / (2 * dx[j])
+        fd_h = (ev.h(x + dx, u, car, 0.85) - ev.h(x - dx, u, car, 0.85)) / (2 * dx[j])
         # κ̂ depends on α through G_xα, which the Jacobians hold constant: a small gap.
         np.testing.assert_allclose(F[:, j], fd_f, rtol=0.02, atol=1e-4)
         np.testing.assert_allclose(H[:, j], fd_h, rtol=0.02, atol=1e-3)
@@ -80,29 +90,31 @@ def test_the_jacobians_match_finite_differences(lane_change) -> None:  # noqa: A
 
 def test_linear_tires_are_the_mf_slope_at_zero_slip_and_their_slopes_are_exact(lane_change) -> None:  # noqa: ANN001, E501
     z, _ = lane_change
-    pre = ev.Preprocess(0.01)
+    car = ev.SHIPPED
+    pre = ev.Preprocess(0.01, car)
     for k in range(600):
         u = pre(z[k])
     x = np.array([22.0, 0.3, 0.15])
-    mf, lin = ev.wheels(x, u, 0.85), ev.wheels(x, u, 0.85, linear=True)
-    np.testing.assert_allclose(lin.fy_qs / lin.alpha, ev.BY * ev.CY * 0.85 * u.fz)
+    mf, lin = ev.wheels(x, u, car, 0.85), ev.wheels(x, u, car, 0.85, linear=True)
+    np.testing.assert_allclose(lin.fy_qs / lin.alpha, car.b_y * car.c_y * 0.85 * u.fz)
     # The MF saturates below its slope at zero; at a small slip the two agree.
     assert np.all(np.abs(lin.fy_qs) >= np.abs(mf.fy_qs))
-    small = ev.wheels(np.array([22.0, 0.0, 0.0]), u, 0.85, linear=True)
-    small_mf = ev.wheels(np.array([22.0, 0.0, 0.0]), u, 0.85)
+    small = ev.wheels(np.array([22.0, 0.0, 0.0]), u, car, 0.85, linear=True)
+    small_mf = ev.wheels(np.array([22.0, 0.0, 0.0]), u, car, 0.85)
     assert np.max(np.abs(small.alpha)) < 0.01
     np.testing.assert_allclose(small.fy_qs, small_mf.fy_qs, rtol=0.05, atol=5.0)
-    s = ev.slopes(x, u, 0.85, lin, linear=True)
+    s = ev.slopes(x, u, car, 0.85, lin, linear=True)
     for j in range(3):
         dx = np.zeros(3)
         dx[j] = 1e-6 * max(1.0, abs(x[j]))
-        up, down = (ev.wheels(x + sgn * dx, u, 0.85, linear=True) for sgn in (1, -1))
+        up, down = (ev.wheels(x + sgn * dx, u, car, 0.85, linear=True) for sgn in (1, -1))
         np.testing.assert_allclose(s.dalpha[:, j], (up.alpha - down.alpha) / (2 * dx[j]), rtol=1e-6)
     np.testing.assert_array_equal(s.dk, 0.0)
 
 
 def _inputs(ax: float = 0.0, ay: float = 0.0, gz: float = 0.0, delta: float = 0.0) -> ev.Inputs:
-    return ev.Inputs(delta, np.zeros(4), ev.loads(ax, ay), np.array([ax, ay, gz, 0, 0, 0, 0.0]))
+    fz = ev.loads(ax, ay, ev.SHIPPED)
+    return ev.Inputs(delta, np.zeros(4), fz, np.array([ax, ay, gz, 0, 0, 0, 0.0]))
 
 
 def test_adaptive_r_trusts_the_inertial_sensors_more_when_they_are_excited() -> None:
@@ -156,5 +168,5 @@ def test_the_plant_can_be_a_car_the_filters_do_not_know() -> None:
 
     shipped, relaxed = run(), run(sigma_y=1.5)
     assert lag(relaxed) > lag(shipped)
-    softer = run(by_scale=0.7, load_sens=0.3)
+    softer = run(b_y=7.0, load_sens=0.3)
     assert np.abs(softer["fy1"]).max() < 0.95 * np.abs(shipped["fy1"]).max()

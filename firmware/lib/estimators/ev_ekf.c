@@ -53,7 +53,7 @@ static void update(ev_ekf_state_t *s, const ev_inputs_t *u)
     ev_slopes(u, &s->model, &w, &d);
     ev_noise(&s->model, u, &w, r);
     ev_jacobians(&s->model, s->x, u, &w, &d, NULL, H);
-    ev_h(s->x, s->x + 3, u, &w, e);
+    ev_h(&s->model, s->x, s->x + 3, u, &w, e);
     for (uint8_t j = 0; j < EV_NY; j++) {
         e[j] = u->y[j] - e[j];
     }

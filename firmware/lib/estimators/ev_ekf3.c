@@ -80,7 +80,7 @@ static void predict(ev_ekf3_state_t *s)
     /* No tire evaluation here: the forces at x_{k-1|k-1} are the last update's, carried
      * there to first order, and their slopes (so J) are that update's (same u_{k-1}). */
     ev_f3(&s->model, s->x, s->J, F);
-    ev_body_rates(s->x, s->fy, &s->u_prev, rates);
+    ev_body_rates(&s->model, s->x, s->fy, &s->dr_prev, rates);
     for (uint8_t i = 0; i < 3u; i++) {
         s->x[i] += s->model.T * rates[i];
     }
@@ -108,9 +108,9 @@ static void update(ev_ekf3_state_t *s, const ev_inputs_t *u)
     ev_wheels(s->x, u, &s->model, &w);
     ev_slopes(u, &s->model, &w, &s->d);
     ev_noise(&s->model, u, &w, r);
-    ev_force_slopes3(u, d, s->J);
-    ev_h3(s->x, u, &w, d, s->J, H);
-    ev_h(s->x, w.fy_qs, u, &w, e);
+    ev_force_slopes3(&s->model, u, d, s->J);
+    ev_h3(&s->model, s->x, u, &w, d, s->J, H);
+    ev_h(&s->model, s->x, w.fy_qs, u, &w, e);
     for (uint8_t j = 0; j < EV_NY; j++) {
         e[j] = u->y[j] - e[j];
     }
@@ -136,7 +136,7 @@ static uint8_t ev_ekf3_step(void *state, const uint8_t *in, uint8_t in_len, uint
             predict(s);
         }
         update(s, &u); /* P stays exactly symmetric: no ev_symmetrize */
-        s->u_prev = u;
+        s->dr_prev = u.dr;
         s->started = 1;
     }
     return (uint8_t)(status | ev_outputs(s->x, s->fy, out));

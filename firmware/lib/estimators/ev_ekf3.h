@@ -18,7 +18,7 @@
 
 typedef struct {
     ev_model_t model;
-    ev_inputs_t u_prev;
+    ev_drive_t dr_prev; /* what the prediction takes of the last sample's inputs */
     float x[3];
     float P[9];
     float fy[4];    /* the lateral forces at x */

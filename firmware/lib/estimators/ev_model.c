@@ -6,32 +6,9 @@
 #include "proto/messages.h"
 #include "proto/wire.h"
 
-/* Note §5.2's vehicle, as in host/vehil/models/ev4wd.py. */
-#define M_VEH 1400.0f
-#define I_Z 1900.0f
-#define L_F 1.10f
-#define L_R 1.45f
-#define TRACK 1.50f
-#define H_CG 0.50f
-#define R_W 0.30f
-#define I_W 1.2f
-#define DRAG (0.5f * 1.206f * 0.30f * 2.2f)
-#define ROLL (M_VEH * 9.81f * 0.015f)
-#define WB (L_F + L_R)
-#define BX 10.0f
-#define CX 1.9f
-#define BY 10.0f
-#define CY 1.3f
-/* B_xα = B_y (note §5.2), so G_xα and F_y0's slope share 1 + (B_y α)² */
-#define BXA BY
-#define BYK 10.0f
-/* C_xα = C_yκ = 1 (host CXA, CYK), so cos(C atan z) = 1/√(1+z²) and sin(C atan z) =
- * z/√(1+z²): a square root instead of an atan and a cos, on a core without an FPU. */
-#define SIGMA (60000.0f / 150000.0f)
-#define TAU_WDOT 0.02f
-
-static const float lx[4] = {L_F, L_F, -L_R, -L_R};
-static const float byw[4] = {0.5f * TRACK, -0.5f * TRACK, 0.5f * TRACK, -0.5f * TRACK};
+/* The smoothing speed of the rolling resistance's sign, tanh(v_x / V_ROLL): numerical,
+ * not the car's. */
+#define V_ROLL 0.5f
 
 static const ROM param_range_t ranges[EV_N_PARAMS] = {
     {1e-3f, 0.05f, 16},  {0.05f, 1.2f, 16},  {0.5f, 60.0f, 16},   {1e-6f, 100.0f, 16},
@@ -42,7 +19,57 @@ static const ROM param_range_t ranges[EV_N_PARAMS] = {
     {0.0f, 1e3f, 16},    {0.0f, 1e4f, 16},   {0.0f, 1e3f, 16},    {0.0f, 1e4f, 16},
     {0.0f, 1e4f, 16},    {0.0f, 1e3f, 16},   {0.0f, 1e3f, 16},    {0.0f, 1e2f, 16},
     {0.0f, 1e2f, 16},    {1.0f, 1e6f, 16},
+    /* the car, as ev.CAR_PARAMS: m, I_z, l_f, l_r, track, h, R, I_w, ρ, C_d, A, f, g */
+    {200.0f, 5000.0f, 16}, {50.0f, 20000.0f, 16}, {0.3f, 3.0f, 16}, {0.3f, 3.0f, 16},
+    {0.8f, 2.5f, 16},      {0.1f, 2.0f, 16},      {0.1f, 1.0f, 16}, {0.05f, 50.0f, 16},
+    {0.5f, 1.5f, 16},      {0.0f, 2.0f, 16},      {0.5f, 10.0f, 16}, {0.0f, 0.1f, 16},
+    {9.0f, 10.5f, 16},
+    /* B_x, C_x, B_y, C_y, E_y, B_xα, C_xα, B_yκ, C_yκ, σ, τ of ω̇'s low-pass; C_xα, C_yκ
+     * at most 1 keep cos(C atan z) > 0 */
+    {1.0f, 50.0f, 16}, {0.5f, 3.0f, 16}, {1.0f, 50.0f, 16}, {0.5f, 2.0f, 16},
+    {-3.0f, 1.0f, 16}, {0.0f, 50.0f, 16}, {0.5f, 1.0f, 16}, {0.0f, 50.0f, 16},
+    {0.5f, 1.0f, 16},  {0.05f, 3.0f, 16}, {1e-3f, 1.0f, 16},
 };
+
+/* The car's terms from its parameters p (EV_P_M on), each in the order its constant was
+ * folded when it was one, so the default car gives the bits it gave then. */
+static void car_configure(ev_car_t *c, const float *p)
+{
+    float m = p[EV_P_M], g = p[EV_P_G], h = p[EV_P_HCG];
+    float lf = p[EV_P_LF], lr = p[EV_P_LR], track = p[EV_P_TRACK], wb = lf + lr;
+    c->m = m;
+    c->inv_m = 1.0f / m;
+    c->i_z = p[EV_P_IZ];
+    c->inv_iz = 1.0f / c->i_z;
+    c->lr_iz = lr / c->i_z;
+    for (uint8_t i = 0; i < 4u; i++) {
+        c->lx[i] = i < 2u ? lf : -lr;
+        c->byw[i] = (i & 1u) ? -(0.5f * track) : 0.5f * track;
+    }
+    c->i_w = p[EV_P_IW];
+    c->inv_r = 1.0f / p[EV_P_RWHEEL];
+    c->drag = 0.5f * p[EV_P_RHO] * p[EV_P_CD] * p[EV_P_AF];
+    c->drag2 = 2.0f * c->drag;
+    c->roll = m * g * p[EV_P_FROLL];
+    c->fz_front = m * g * lr / (2.0f * wb);
+    c->fz_rear = m * g * lf / (2.0f * wb);
+    c->fz_lon = m * h / (2.0f * wb);
+    c->fz_lat_f = m * h * lr / (track * wb);
+    c->fz_lat_r = m * h * lf / (track * wb);
+    c->bx_cx = p[EV_P_BX] * p[EV_P_CX];
+    c->by = p[EV_P_BY];
+    c->cy = p[EV_P_CY];
+    c->by_cy = c->by * c->cy;
+    c->ey = p[EV_P_EY];
+    c->bxa = p[EV_P_BXA];
+    c->cxa = p[EV_P_CXA];
+    c->byk = p[EV_P_BYK];
+    c->cyk = p[EV_P_CYK];
+    c->sigma = p[EV_P_SIGMA];
+    c->shape = (uint8_t)((c->bxa != c->by ? EV_TIRE_BXA : 0u) |
+                         (c->cxa != 1.0f ? EV_TIRE_CXA : 0u) |
+                         (c->ey != 0.0f ? EV_TIRE_EY : 0u) | (c->cyk != 1.0f ? EV_TIRE_CYK : 0u));
+}
 
 uint8_t ev_model_configure(ev_model_t *m, uint8_t mode, const uint8_t *params,
                            const param_range_t *own, uint8_t n_own)
@@ -55,10 +82,12 @@ uint8_t ev_model_configure(ev_model_t *m, uint8_t mode, const uint8_t *params,
     if (bad != 0u) {
         return (uint8_t)(bad + EV_N_PARAMS);
     }
+    float p[EV_N_PARAMS];
     for (uint8_t i = 0; i < EV_N_PARAMS; i++) {
-        m->p[i] = get_f32(params + 4u * i);
+        p[i] = get_f32(params + 4u * i);
     }
-    const float *p = m->p;
+    memcpy(m->p, p, sizeof m->p);
+    car_configure(&m->car, p);
     m->T = p[EV_P_T];
     m->inv_T = 1.0f / m->T;
     m->mu = p[EV_P_MU];
@@ -71,8 +100,8 @@ uint8_t ev_model_configure(ev_model_t *m, uint8_t mode, const uint8_t *params,
         m->r_lo[i] = fixed[i] / p[EV_P_RCLIP];
         m->r_hi[i] = fixed[i] * p[EV_P_RCLIP];
     }
-    m->lp = m->T / (TAU_WDOT + m->T);
-    m->adaptive = m->p[EV_P_ADAPTIVE] >= 0.5f;
+    m->lp = m->T / (p[EV_P_TAU_WDOT] + m->T);
+    m->adaptive = p[EV_P_ADAPTIVE] >= 0.5f;
     ev_model_reset(m);
     return 0;
 }
@@ -93,84 +122,103 @@ uint8_t ev_model_inputs(ev_model_t *m, const uint8_t *in, ev_inputs_t *u)
         }
     }
     const float *w = z + 3, *tq = z + 8;
+    const ev_car_t *c = &m->car;
     float ax = z[0], ay = z[1];
     for (uint8_t i = 0; i < 4u; i++) {
         if (m->have_w) {
             m->w_dot[i] += m->lp * ((w[i] - m->w_prev[i]) * m->inv_T - m->w_dot[i]);
         }
         m->w_prev[i] = w[i];
-        u->fx[i] = (tq[i] - I_W * m->w_dot[i]) * (1.0f / R_W);
+        u->dr.fx[i] = (tq[i] - c->i_w * m->w_dot[i]) * c->inv_r;
     }
     m->have_w = 1;
     /* Static loads and quasi-static transfer (note §5.2). */
-    /* the constant factors first, so the compiler folds them */
-    float lon = ax * (M_VEH * H_CG / (2.0f * WB));
-    float front = M_VEH * 9.81f * L_R / (2.0f * WB) - lon;
-    float rear = M_VEH * 9.81f * L_F / (2.0f * WB) + lon;
-    float lat_f = ay * (M_VEH * H_CG * L_R / (TRACK * WB));
-    float lat_r = ay * (M_VEH * H_CG * L_F / (TRACK * WB));
+    float lon = ax * c->fz_lon;
+    float front = c->fz_front - lon;
+    float rear = c->fz_rear + lon;
+    float lat_f = ay * c->fz_lat_f;
+    float lat_r = ay * c->fz_lat_r;
     const float fz[4] = {front - lat_f, front + lat_f, rear - lat_r, rear + lat_r};
     for (uint8_t i = 0; i < 4u; i++) {
         u->fz[i] = fz[i] > 0.0f ? fz[i] : 0.0f;
     }
     u->delta = z[7];
-    u->sd = sinf(z[7]);
+    float sd = sinf(z[7]);
     /* a road-wheel angle is within ±90°, where the cosine is this square root */
-    u->cd = fabsf(z[7]) < 1.5707963f ? sqrtf(1.0f - u->sd * u->sd) : cosf(z[7]);
+    u->dr.sd = sd;
+    u->dr.cd = fabsf(z[7]) < 1.5707963f ? sqrtf(1.0f - sd * sd) : cosf(z[7]);
     for (uint8_t i = 0; i < 4u; i++) {
-        float cd = i < 2u ? u->cd : 1.0f, sd = i < 2u ? u->sd : 0.0f;
-        u->L[i][0] = cd;
-        u->L[i][1] = sd;
-        u->L[i][2] = -byw[i] * cd + lx[i] * sd;
-        u->dviy[i][0] = -sd;
-        u->dviy[i][1] = cd;
-        u->dviy[i][2] = sd * byw[i] + cd * lx[i];
+        const float lx = c->lx[i], byw = c->byw[i];
+        if (i < 2u) {
+            float cd = u->dr.cd;
+            u->L[i][0] = cd;
+            u->L[i][1] = sd;
+            u->L[i][2] = -byw * cd + lx * sd;
+            u->dviy[i][0] = -sd;
+            u->dviy[i][1] = cd;
+            u->dviy[i][2] = sd * byw + cd * lx;
+        } else { /* the rear wheels are not steered: δ = 0 in the same expressions */
+            u->L[i][0] = 1.0f;
+            u->L[i][1] = 0.0f;
+            u->L[i][2] = -byw;
+            u->dviy[i][0] = -0.0f;
+            u->dviy[i][1] = 1.0f;
+            u->dviy[i][2] = lx;
+        }
     }
     memcpy(u->y, z, 3u * sizeof(float));
     memcpy(u->y + 3, w, 4u * sizeof(float));
     return 0;
 }
 
-static float cd_of(const ev_inputs_t *u, uint8_t i) { return i < 2u ? u->cd : 1.0f; }
-static float sd_of(const ev_inputs_t *u, uint8_t i) { return i < 2u ? u->sd : 0.0f; }
+static float cd_of(const ev_inputs_t *u, uint8_t i) { return i < 2u ? u->dr.cd : 1.0f; }
+static float sd_of(const ev_inputs_t *u, uint8_t i) { return i < 2u ? u->dr.sd : 0.0f; }
 static float fmaxf_(float a, float b) { return a > b ? a : b; }
 
-/* tanh(v_x / 0.5) of the rolling resistance: past |v_x| = 5 m/s it is 1 in float32 (and
- * within 4e-9 of it), so the 3.2 k-cycle tanhf is skipped at speed; the host's
+/* tanh(v_x / V_ROLL) of the rolling resistance: past |v_x| = 5 m/s it is 1 in float32
+ * (and within 4e-9 of it), so the 3.2 k-cycle tanhf is skipped at speed; the host's
  * roll_tanh does the same. */
 static float roll_tanh(float vx)
 {
-    return vx > 5.0f ? 1.0f : (vx < -5.0f ? -1.0f : tanhf(vx / 0.5f));
+    return vx > 5.0f ? 1.0f : (vx < -5.0f ? -1.0f : tanhf(vx / V_ROLL));
 }
 
 void ev_wheels(const float *x, const ev_inputs_t *u, const ev_model_t *m, ev_wheels_t *w)
 {
-    float mu = m->mu;
+    const ev_car_t *c = &m->car;
+    float mu = m->mu, cd = u->dr.cd, sd = u->dr.sd;
     for (uint8_t i = 0; i < 4u; i++) {
-        float vX = x[0] - byw[i] * x[2], vY = x[1] + lx[i] * x[2];
+        float vX = x[0] - c->byw[i] * x[2], vY = x[1] + c->lx[i] * x[2];
         float vix = vX, viy = vY;
         if (i < 2u) { /* the front wheels turn with δ */
-            vix = u->cd * vX + u->sd * vY;
-            viy = -u->sd * vX + u->cd * vY;
+            vix = cd * vX + sd * vY;
+            viy = -sd * vX + cd * vY;
         }
         float den = fmaxf_(fabsf(vix), 0.5f), zz = viy / den;
         float dmax = mu * u->fz[i];
         float alpha, kappa, ba, ty = 0.0f, sty = 0.0f, g_yk = 1.0f;
         if (m->linear) {
             alpha = -zz;
-            ba = BY * alpha;
-            kappa = u->fx[i] / (BX * CX * fmaxf_(dmax, 1.0f));
-            w->fy_qs[i] = dmax * CY * ba;
+            ba = c->by * alpha;
+            kappa = u->dr.fx[i] / (c->bx_cx * fmaxf_(dmax, 1.0f));
+            w->fy_qs[i] = dmax * c->cy * ba;
         } else {
             alpha = -atanf(zz);
-            ba = BY * alpha;
-            /* (27)-(28): κ̂ = F_x / (G_xα B_x C_x D_x), G_xα = 1/√(1+(B_xα α)²) */
-            kappa = u->fx[i] * sqrtf(1.0f + ba * ba) / (BX * CX * fmaxf_(dmax, 1.0f));
-            ty = CY * atanf(ba);
+            ba = c->by * alpha;
+            /* (27)-(28): κ̂ = F_x / (G_xα B_x C_x D_x), G_xα = cos(C_xα atan(B_xα α)):
+             * 1/√(1+(B_xα α)²) at C_xα = 1 (the default), a square root where an atan and
+             * a cos would cost ~4 k cycles; B_xα = B_y (the default) shares B_y α */
+            float bxa = (c->shape & EV_TIRE_BXA) ? c->bxa * alpha : ba;
+            float inv_gxa = (c->shape & EV_TIRE_CXA) ? 1.0f / cosf(c->cxa * atanf(bxa))
+                                                     : sqrtf(1.0f + bxa * bxa);
+            kappa = u->dr.fx[i] * inv_gxa / (c->bx_cx * fmaxf_(dmax, 1.0f));
+            /* (15) with S_H = 0: sin(C_y atan(B_y α - E_y (B_y α - atan(B_y α)))) */
+            float zy = (c->shape & EV_TIRE_EY) ? ba - c->ey * (ba - atanf(ba)) : ba;
+            ty = c->cy * atanf(zy);
             sty = sinf(ty);
-            float bk = BYK * kappa;
-            g_yk = 1.0f / sqrtf(1.0f + bk * bk);
-            /* (15), (17), (19) with E_y = 0 and S_H = 0 */
+            float bk = c->byk * kappa;
+            g_yk = (c->shape & EV_TIRE_CYK) ? cosf(c->cyk * atanf(bk)) : 1.0f / sqrtf(1.0f + bk * bk);
+            /* (17), (19) */
             w->fy_qs[i] = dmax * sty * g_yk;
         }
         w->vix[i] = vix;
@@ -187,6 +235,7 @@ void ev_wheels(const float *x, const ev_inputs_t *u, const ev_model_t *m, ev_whe
 
 void ev_slopes(const ev_inputs_t *u, const ev_model_t *m, const ev_wheels_t *w, ev_slopes_t *d)
 {
+    const ev_car_t *c = &m->car;
     float mu = m->mu;
     for (uint8_t i = 0; i < 4u; i++) {
         const float *L = u->L[i], *dviy = u->dviy[i];
@@ -202,22 +251,40 @@ void ev_slopes(const ev_inputs_t *u, const ev_model_t *m, const ev_wheels_t *w, 
         }
         if (m->linear) { /* κ̂ does not depend on α, F_y = B_y C_y μF_z α */
             d->dk[i] = 0.0f;
-            d->dqs[i] = mu * u->fz[i] * (BY * CY);
+            d->dqs[i] = mu * u->fz[i] * c->by_cy;
             continue;
         }
-        /* κ̂ = F_x / (G_xα(α) k): dκ̂/dα = -κ̂ G_xα' / G_xα = κ̂ B_xα² α / (1 + (B_xα α)²) */
-        float k = w->kappa[i], ba = w->ba[i], bk = BYK * k;
+        /* κ̂ = F_x / (G_xα(α) k): dκ̂/dα = -κ̂ G_xα' / G_xα
+         * = κ̂ C_xα B_xα tan(C_xα atan(B_xα α)) / (1 + (B_xα α)²), κ̂ B_xα² α / (1 + (B_xα α)²)
+         * at the defaults */
+        float k = w->kappa[i], ba = w->ba[i], bk = c->byk * k;
         float inv_q = 1.0f / (1.0f + ba * ba);
-        float dk = k * BXA * ba * inv_q;
+        float dk;
+        if (!(c->shape & (EV_TIRE_BXA | EV_TIRE_CXA))) {
+            dk = k * c->bxa * ba * inv_q;
+        } else {
+            float bxa = c->bxa * w->alpha[i], t = c->cxa * atanf(bxa);
+            dk = k * c->cxa * c->bxa * (sinf(t) / cosf(t)) / (1.0f + bxa * bxa);
+        }
         float dmax = mu * u->fz[i], sty = w->sty[i];
-        /* cos C_y atan(B_y α) from its sine: negative past |C_y atan| = π/2 */
+        /* cos C_y atan(z) from its sine: negative past |C_y atan| = π/2 */
         float cty = sqrtf(fmaxf_(1.0f - sty * sty, 0.0f));
         if (fabsf(w->ty[i]) > 1.5707963f) {
             cty = -cty;
         }
-        float f0 = dmax * sty, df0 = dmax * (CY * BY) * cty * inv_q;
-        float g_yk = w->g_yk[i]; /* G_yκ = 1/√(1+(B_yκ κ̂)²) */
-        float dg_yk = (-BYK) * bk * g_yk * g_yk * g_yk;
+        /* dF_y0/dα = D C_y cos(C_y atan z) dz/dα / (1 + z²), z = B_y α at E_y = 0, else
+         * dz/dα = B_y (1 - E_y + E_y / (1 + (B_y α)²)) */
+        float f0 = dmax * sty, df0 = dmax * c->by_cy * cty * inv_q;
+        if (c->shape & EV_TIRE_EY) {
+            float e = c->ey, zy = ba - e * (ba - atanf(ba));
+            df0 = dmax * c->by_cy * cty * ((1.0f - e + e * inv_q) / (1.0f + zy * zy));
+        }
+        float g_yk = w->g_yk[i], dg_yk; /* G_yκ = cos(C_yκ atan(B_yκ κ̂)) */
+        if (c->shape & EV_TIRE_CYK) {
+            dg_yk = -sinf(c->cyk * atanf(bk)) * c->cyk * c->byk / (1.0f + bk * bk);
+        } else {
+            dg_yk = (-c->byk) * bk * g_yk * g_yk * g_yk;
+        }
         d->dk[i] = dk;
         d->dqs[i] = g_yk * df0 + f0 * dg_yk * dk; /* d(G_yκ F_y0)/dα */
     }
@@ -225,25 +292,28 @@ void ev_slopes(const ev_inputs_t *u, const ev_model_t *m, const ev_wheels_t *w, 
 
 /* (ΣF_X - resistances) / m, ΣF_Y / m, M_z / I_z (eqs. 1-4, 3), by axle: the front pair
  * shares δ and l_f and the rear is not steered, which saves a third of the operations. */
-static void accels(const float *x, const float *fy, const ev_inputs_t *u, float *acc)
+static void accels(const ev_car_t *c, const float *x, const float *fy, const ev_drive_t *dr,
+                   float *acc)
 {
-    const float *fx = u->fx;
-    float cd = u->cd, sd = u->sd;
+    const float *fx = dr->fx;
+    float cd = dr->cd, sd = dr->sd;
     float fx_f = fx[0] + fx[1], fy_f = fy[0] + fy[1], fx_r = fx[2] + fx[3];
     float fy_r = fy[2] + fy[3];
     float dX_f = cd * (fx[0] - fx[1]) - sd * (fy[0] - fy[1]); /* F_1X - F_2X */
     float fY_f = sd * fx_f + cd * fy_f;
     float sx = cd * fx_f - sd * fy_f + fx_r, sy = fY_f + fy_r;
-    float mz = L_F * fY_f - L_R * fy_r - (0.5f * TRACK) * (dX_f + fx[2] - fx[3]);
+    /* l_r = -lx[2], d/2 = byw[0] */
+    float mz = c->lx[0] * fY_f + c->lx[2] * fy_r - c->byw[0] * (dX_f + fx[2] - fx[3]);
     float vx = x[0];
-    acc[0] = (sx - (DRAG * vx * fabsf(vx) + ROLL * roll_tanh(vx))) * (1.0f / M_VEH);
-    acc[1] = sy * (1.0f / M_VEH);
-    acc[2] = mz * (1.0f / I_Z);
+    acc[0] = (sx - (c->drag * vx * fabsf(vx) + c->roll * roll_tanh(vx))) * c->inv_m;
+    acc[1] = sy * c->inv_m;
+    acc[2] = mz * c->inv_iz;
 }
 
-void ev_body_rates(const float *x, const float *fy, const ev_inputs_t *u, float *rates)
+void ev_body_rates(const ev_model_t *m, const float *x, const float *fy, const ev_drive_t *dr,
+                   float *rates)
 {
-    accels(x, fy, u, rates);
+    accels(&m->car, x, fy, dr, rates);
     rates[0] += x[2] * x[1];
     rates[1] -= x[2] * x[0];
 }
@@ -251,39 +321,40 @@ void ev_body_rates(const float *x, const float *fy, const ev_inputs_t *u, float 
 void ev_step(const ev_model_t *m, float *x, const ev_inputs_t *u, const ev_wheels_t *w)
 {
     float d[3];
-    ev_body_rates(x, x + 3, u, d);
+    ev_body_rates(m, x, x + 3, &u->dr, d);
     for (uint8_t i = 0; i < 4u; i++) { /* (20) */
-        x[3u + i] += m->T * fabsf(w->vix[i]) / SIGMA * (w->fy_qs[i] - x[3u + i]);
+        x[3u + i] += m->T * fabsf(w->vix[i]) / m->car.sigma * (w->fy_qs[i] - x[3u + i]);
     }
     for (uint8_t i = 0; i < 3u; i++) {
         x[i] += m->T * d[i];
     }
 }
 
-void ev_h(const float *x, const float *fy, const ev_inputs_t *u, const ev_wheels_t *w, float *y)
+void ev_h(const ev_model_t *m, const float *x, const float *fy, const ev_inputs_t *u,
+          const ev_wheels_t *w, float *y)
 {
     float acc[3];
-    accels(x, fy, u, acc);
+    accels(&m->car, x, fy, &u->dr, acc);
     y[0] = acc[0];
     y[1] = acc[1];
     y[2] = x[2];
     for (uint8_t i = 0; i < 4u; i++) { /* (29) */
-        y[3u + i] = w->vix[i] * (1.0f + w->kappa[i]) * (1.0f / R_W);
+        y[3u + i] = w->vix[i] * (1.0f + w->kappa[i]) * m->car.inv_r;
     }
 }
 
-static float resist_slope(float vx)
+static float resist_slope(const ev_car_t *c, float vx)
 {
     float t = roll_tanh(vx);
-    return 2.0f * DRAG * fabsf(vx) + ROLL * (1.0f - t * t) / 0.5f;
+    return c->drag2 * fabsf(vx) + c->roll * (1.0f - t * t) / V_ROLL;
 }
 
 /* Row i of ∂ω/∂(v_x, v_y, γ) (29) into h (stride 1). */
-static void omega_row(const ev_inputs_t *u, const ev_wheels_t *w, const ev_slopes_t *d,
-                      uint8_t i, float *h)
+static void omega_row(const ev_car_t *c, const ev_inputs_t *u, const ev_wheels_t *w,
+                      const ev_slopes_t *d, uint8_t i, float *h)
 {
     const float *L = u->L[i];
-    float a = (1.0f + w->kappa[i]) * (1.0f / R_W), b = w->vix[i] * d->dk[i] * (1.0f / R_W);
+    float a = (1.0f + w->kappa[i]) * c->inv_r, b = w->vix[i] * d->dk[i] * c->inv_r;
     for (uint8_t j = 0; j < 3u; j++) {
         h[j] = L[j] * a + b * d->dalpha[i][j];
     }
@@ -292,7 +363,8 @@ static void omega_row(const ev_inputs_t *u, const ev_wheels_t *w, const ev_slope
 void ev_jacobians(const ev_model_t *m, const float *x, const ev_inputs_t *u,
                   const ev_wheels_t *w, const ev_slopes_t *d, float *F, float *H)
 {
-    float rs = resist_slope(x[0]) / M_VEH;
+    const ev_car_t *c = &m->car;
+    float rs = resist_slope(c, x[0]) / c->m;
     if (H != NULL) {
         memset(H, 0, EV_NY * EV_NX * sizeof(float));
         H[0] = -rs;
@@ -308,29 +380,29 @@ void ev_jacobians(const ev_model_t *m, const float *x, const ev_inputs_t *u,
     }
     for (uint8_t i = 0; i < 4u; i++) {
         float cd = cd_of(u, i), sd = sd_of(u, i);
-        uint8_t c = (uint8_t)(3u + i);
+        uint8_t k = (uint8_t)(3u + i);
         if (H != NULL) {
-            H[c] = -sd / M_VEH;
-            H[EV_NX + c] = cd / M_VEH;
+            H[k] = -sd / c->m;
+            H[EV_NX + k] = cd / c->m;
             float row[3];
-            omega_row(u, w, d, i, row);
-            memcpy(H + c * EV_NX, row, sizeof row);
+            omega_row(c, u, w, d, i, row);
+            memcpy(H + k * EV_NX, row, sizeof row);
         }
         if (F == NULL) {
             continue;
         }
-        F[c] = -sd / M_VEH;
-        F[EV_NX + c] = cd / M_VEH;
-        F[2 * EV_NX + c] = (lx[i] * cd + byw[i] * sd) / I_Z;
+        F[k] = -sd / c->m;
+        F[EV_NX + k] = cd / c->m;
+        F[2 * EV_NX + k] = (c->lx[i] * cd + c->byw[i] * sd) / c->i_z;
         /* Row of F̃_iy: ∂/∂V of |v_ix|/σ (G_yκ(κ̂) F_y0(α) - F̃). */
         const float *L = u->L[i];
         float vix = w->vix[i], avix = fabsf(vix);
         float sgn = vix > 0.0f ? 1.0f : (vix < 0.0f ? -1.0f : 0.0f);
-        float q = w->fy_qs[i] - x[c];
+        float q = w->fy_qs[i] - x[k];
         for (uint8_t j = 0; j < 3u; j++) {
-            F[c * EV_NX + j] = (sgn * L[j] * q + avix * d->dqs[i] * d->dalpha[i][j]) / SIGMA;
+            F[k * EV_NX + j] = (sgn * L[j] * q + avix * d->dqs[i] * d->dalpha[i][j]) / c->sigma;
         }
-        F[c * EV_NX + c] = -avix / SIGMA;
+        F[k * EV_NX + k] = -avix / c->sigma;
     }
     if (F != NULL) { /* I + T J */
         for (uint8_t k = 0; k < EV_NX * EV_NX; k++) {
@@ -342,25 +414,26 @@ void ev_jacobians(const ev_model_t *m, const float *x, const ev_inputs_t *u,
     }
 }
 
-void ev_force_slopes3(const ev_inputs_t *u, const ev_slopes_t *d, float *J)
+void ev_force_slopes3(const ev_model_t *m, const ev_inputs_t *u, const ev_slopes_t *d, float *J)
 {
     /* ∂(ΣF_X / m, ΣF_Y / m, M_z / I_z)/∂V through the quasi-static forces' dF_y/dα ∂α/∂V,
      * by axle as in accels */
-    const float a0 = -u->sd * (1.0f / M_VEH), a1 = u->cd * (1.0f / M_VEH);
-    const float a2 = L_F * u->cd * (1.0f / I_Z), a2d = 0.5f * TRACK * u->sd * (1.0f / I_Z);
+    const ev_car_t *c = &m->car;
+    const float a0 = -u->dr.sd * c->inv_m, a1 = u->dr.cd * c->inv_m;
+    const float a2 = c->lx[0] * u->dr.cd * c->inv_iz, a2d = c->byw[0] * u->dr.sd * c->inv_iz;
     for (uint8_t j = 0; j < 3u; j++) {
         float g1 = d->dqs[0] * d->dalpha[0][j], g2 = d->dqs[1] * d->dalpha[1][j];
         float s_f = g1 + g2;
         float s_r = d->dqs[2] * d->dalpha[2][j] + d->dqs[3] * d->dalpha[3][j];
         J[j] = a0 * s_f;
-        J[3u + j] = a1 * s_f + s_r * (1.0f / M_VEH);
-        J[6u + j] = a2 * s_f + a2d * (g1 - g2) - (L_R / I_Z) * s_r;
+        J[3u + j] = a1 * s_f + s_r * c->inv_m;
+        J[6u + j] = a2 * s_f + a2d * (g1 - g2) - c->lr_iz * s_r;
     }
 }
 
 void ev_f3(const ev_model_t *m, const float *x, const float *J, float *F)
 {
-    float rs = resist_slope(x[0]) * (1.0f / M_VEH);
+    float rs = resist_slope(&m->car, x[0]) * m->car.inv_m;
     const float coupling[9] = {-rs, x[2], x[1], -x[2], 0.0f, -x[0], 0.0f, 0.0f, 0.0f};
     for (uint8_t k = 0; k < 9u; k++) {
         F[k] = m->T * (J[k] + coupling[k]);
@@ -370,16 +443,16 @@ void ev_f3(const ev_model_t *m, const float *x, const float *J, float *F)
     F[8] += 1.0f;
 }
 
-void ev_h3(const float *x, const ev_inputs_t *u, const ev_wheels_t *w, const ev_slopes_t *d,
-           const float *J, float *H)
+void ev_h3(const ev_model_t *m, const float *x, const ev_inputs_t *u, const ev_wheels_t *w,
+           const ev_slopes_t *d, const float *J, float *H)
 {
     memcpy(H, J, 6u * sizeof(float)); /* a_x, a_y: the accelerations' rows */
-    H[0] -= resist_slope(x[0]) * (1.0f / M_VEH);
+    H[0] -= resist_slope(&m->car, x[0]) * m->car.inv_m;
     H[6] = 0.0f;
     H[7] = 0.0f;
     H[8] = 1.0f;
     for (uint8_t i = 0; i < 4u; i++) {
-        omega_row(u, w, d, i, H + (3u + i) * 3u);
+        omega_row(&m->car, u, w, d, i, H + (3u + i) * 3u);
     }
 }
 
@@ -403,7 +476,7 @@ void ev_noise(const ev_model_t *m, const ev_inputs_t *u, const ev_wheels_t *w, f
     float ax = fabsf(u->y[0]), ay = fabsf(u->y[1]), gz = fabsf(u->y[2]), dl = fabsf(u->delta);
     float sfx = 0.0f, sk = 0.0f;
     for (uint8_t i = 0; i < 4u; i++) {
-        sfx += fabsf(u->fx[i]);
+        sfx += fabsf(u->dr.fx[i]);
         sk += fabsf(w->kappa[i]);
     }
     /* (66)-(69); the |δ| term is computed once when the rules of a_y and γ share d_2 */

@@ -114,7 +114,7 @@ static uint8_t update(ev_ukf_state_t *s, const ev_inputs_t *u)
     }
     for (uint8_t j = 0; j < EV_UKF_NS; j++) {
         ev_wheels(s->chi[j], u, &s->model, &w);
-        ev_h(s->chi[j], s->chi[j] + 3, u, &w, s->Y[j]);
+        ev_h(&s->model, s->chi[j], s->chi[j] + 3, u, &w, s->Y[j]);
     }
     mean(s, (const float (*)[EV_NX])s->Y, y);
     cov(s, (const float (*)[EV_NX])s->Y, y, (const float (*)[EV_NX])s->Y, y, s->S);

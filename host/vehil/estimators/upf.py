@@ -1,7 +1,8 @@
 """Seed 001: EKF, UKF and the unscented particle filter on the 7-state EV model.
 
-All three share the model of `models/ev4wd.py` (note §2.9-2.10), its input
-preprocessing, Q, P_0 and R: fixed, or adaptive by (66)-(69) (`adaptive`). A step
+All three share the model of `models/ev4wd.py` (note §2.9-2.10) with the car their
+parameters name (`Car`: every vehicle and tire constant), its input preprocessing,
+Q, P_0 and R: fixed, or adaptive by (66)-(69) (`adaptive`). A step
 takes the sensors of sample k: it predicts from the last estimate with the last
 inputs u_{k-1} (31), then corrects with y_k (32), and outputs the corrected state
 and β. The first sample only corrects the prior.
@@ -87,10 +88,15 @@ def _accept(filt: _Filter | Upf, z: np.ndarray) -> ev.Inputs | None:
 
 
 def _noise(
-    x: np.ndarray, u: ev.Inputs, mu: float, p: Mapping[str, float], linear: bool = False
+    x: np.ndarray,
+    u: ev.Inputs,
+    car: ev.Car,
+    mu: float,
+    p: Mapping[str, float],
+    linear: bool = False,
 ) -> np.ndarray:
     """R at this sample: (66)-(69) from the slips at x, or the fixed R."""
-    return ev.adaptive_r(u, ev.wheels(x, u, mu, linear).kappa, p)
+    return ev.adaptive_r(u, ev.wheels(x, u, car, mu, linear).kappa, p)
 
 
 class _Filter(ABC):
@@ -101,8 +107,8 @@ class _Filter(ABC):
 
     def __init__(self, p: Mapping[str, float]):
         self.p = p
-        self.mu, self.T = p["mu"], p["T"]
-        self.pre = ev.Preprocess(self.T)
+        self.mu, self.T, self.car = p["mu"], p["T"], ev.Car.of(p)
+        self.pre = ev.Preprocess(self.T, self.car)
         self.x, self.P = ev.x0(p, self.N)
         self.Q = np.diag(ev.q_diag(p, self.N))
         self.u_prev: ev.Inputs | None = None
@@ -121,7 +127,7 @@ class _Filter(ABC):
         return ev.outputs(self.x)
 
     def noise(self, u: ev.Inputs) -> np.ndarray:
-        R = _noise(self.x, u, self.mu, self.p, self.linear)
+        R = _noise(self.x, u, self.car, self.mu, self.p, self.linear)
         self.r_history.append(R)
         return R
 
@@ -151,14 +157,14 @@ class Ekf(_Filter):
     """step(12 sensors) -> [v_x, v_y, γ, F_1y..F_4y, β]."""
 
     def predict(self, u: ev.Inputs) -> None:
-        F, _ = ev.jacobians(self.x, u, self.mu, self.T)
-        self.x = ev.step(self.x, u, self.mu, self.T)
+        F, _ = ev.jacobians(self.x, u, self.car, self.mu, self.T)
+        self.x = ev.step(self.x, u, self.car, self.mu, self.T)
         self.P = F @ self.P @ F.T + self.Q
 
     def update(self, u: ev.Inputs) -> None:
         R = self.noise(u)
-        _, H = ev.jacobians(self.x, u, self.mu, self.T)
-        e = u.y - ev.h(self.x, u, self.mu)
+        _, H = ev.jacobians(self.x, u, self.car, self.mu, self.T)
+        e = u.y - ev.h(self.x, u, self.car, self.mu)
         self.x, self.P = ekf_correct(self.x, self.P, H, e, R)
 
 
@@ -175,17 +181,17 @@ class Ekf3(_Filter):
 
     def predict(self, u: ev.Inputs) -> None:
         assert self.slopes is not None  # an update came first
-        F, _ = ev.jacobians3(self.x, u, self.T, self.slopes, None)
-        self.x = ev.step3(self.x, u, self.T, self.fy)
+        F, _ = ev.jacobians3(self.x, u, self.car, self.T, self.slopes, None)
+        self.x = ev.step3(self.x, u, self.car, self.T, self.fy)
         self.P = F @ self.P @ F.T + self.Q
 
     def update(self, u: ev.Inputs) -> None:
         R = self.noise(u)
-        w = ev.wheels(self.x, u, self.mu, self.linear)
-        s = ev.slopes(self.x, u, self.mu, w, self.linear)
-        _, H = ev.jacobians3(self.x, u, self.T, s, w)
+        w = ev.wheels(self.x, u, self.car, self.mu, self.linear)
+        s = ev.slopes(self.x, u, self.car, self.mu, w, self.linear)
+        _, H = ev.jacobians3(self.x, u, self.car, self.T, s, w)
         assert H is not None
-        e = u.y - ev.h(self.x, u, self.mu, quasi_static=True, linear=self.linear)
+        e = u.y - ev.h(self.x, u, self.car, self.mu, quasi_static=True, linear=self.linear)
         x_pred = self.x
         self.x, self.P = ekf_correct(self.x, self.P, H, e, R)
         self.fy = w.fy_qs + s.dqs * (s.dalpha @ (self.x - x_pred))
@@ -209,7 +215,7 @@ class Ukf(_Filter):
             self.flags |= SINGULAR
             self.P = np.diag(np.diag(self.P))
             return
-        chi = ev.step(chi, u, self.mu, self.T)
+        chi = ev.step(chi, u, self.car, self.mu, self.T)
         self.x = ut_mean(chi, self.wm)
         d = chi - self.x
         self.P = (self.wc[:, None] * d).T @ d + self.Q
@@ -221,7 +227,7 @@ class Ukf(_Filter):
             self.flags |= SINGULAR
             self.P = np.diag(np.diag(self.P))
             return
-        Y = ev.h(chi, u, self.mu)
+        Y = ev.h(chi, u, self.car, self.mu)
         y = ut_mean(Y, self.wm)
         dy, dx = Y - y, chi - self.x
         Pyy = (self.wc[:, None] * dy).T @ dy + np.diag(R)
@@ -236,9 +242,9 @@ class Upf:
 
     def __init__(self, p: Mapping[str, float], n: int = 100, seed: int = 0):
         self.p, self.n = p, n
-        self.mu, self.T = p["mu"], p["T"]
+        self.mu, self.T, self.car = p["mu"], p["T"], ev.Car.of(p)
         self.rng = np.random.default_rng(seed)
-        self.pre = ev.Preprocess(self.T)
+        self.pre = ev.Preprocess(self.T, self.car)
         x0, P0 = ev.x0(p)
         self.X = x0 + self.rng.standard_normal((n, ev.N_X)) * np.sqrt(np.diag(P0))  # (37)
         self.P = np.broadcast_to(P0, (n, ev.N_X, ev.N_X)).copy()
@@ -264,7 +270,7 @@ class Upf:
         u = _accept(self, z)
         if u is None:
             return ev.outputs(self.x)
-        self._step(u, _noise(self.x, u, self.mu, self.p))
+        self._step(u, _noise(self.x, u, self.car, self.mu, self.p))
         self.u_prev = u
         return ev.outputs(self.x)
 
@@ -293,10 +299,10 @@ class Upf:
             chi_v[:, 1 + na + 2 * nx + j, j] = -s * math.sqrt(r[j])
         # 2) Time update (47)-(51) (the first sample has no u_{k-1}: the prior stands).
         if self.u_prev is not None:
-            chi_x = ev.step(chi_x, self.u_prev, self.mu, self.T)
+            chi_x = ev.step(chi_x, self.u_prev, self.car, self.mu, self.T)
         pred = chi_x[:, self.f_of] + chi_w
         x_pred = ut_mean(pred, self.wm)
-        Y = ev.h(pred[:, self.h_args], u, self.mu)[:, self.h_of] + chi_v
+        Y = ev.h(pred[:, self.h_args], u, self.car, self.mu)[:, self.h_of] + chi_v
         y_pred = ut_mean(Y, self.wm)
         dx, dy = pred - x_pred[:, None], Y - y_pred[:, None]
         wdx = np.swapaxes(self.wc[None, :, None] * dx, 1, 2)
@@ -313,9 +319,13 @@ class Upf:
         eps = self.rng.standard_normal((n, nx))
         xs = x_upd + np.einsum("nij,nj->ni", Lu, eps)
         log_q = -0.5 * (eps**2).sum(1) - np.log(np.einsum("nii->ni", Lu)).sum(1)
-        prior = self.X if self.u_prev is None else ev.step(self.X, self.u_prev, self.mu, self.T)
+        prior = (
+            self.X
+            if self.u_prev is None
+            else ev.step(self.X, self.u_prev, self.car, self.mu, self.T)
+        )
         log_trans = -0.5 * (((xs - prior) ** 2) / self.q).sum(1)
-        log_lik = -0.5 * (((u.y - ev.h(xs, u, self.mu)) ** 2) / r).sum(1)
+        log_lik = -0.5 * (((u.y - ev.h(xs, u, self.car, self.mu)) ** 2) / r).sum(1)
         logw = log_lik + log_trans - log_q
         w = np.exp(logw - logw.max())
         w /= w.sum()

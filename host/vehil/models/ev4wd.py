@@ -1,9 +1,11 @@
-"""Seed 001's distributed-drive EV: vehicle constants and the filters' 7-state model.
+"""Seed 001's distributed-drive EV: the car as data and the filters' 7-state model.
 
-Every vehicle and tire number is the note's §5.2 suggestion (the paper gives none:
-note §0.2); the plant (plants/ev4wd.py) uses the same vehicle, so the filters know
-it as the paper assumes ("vehicle parameters known"). Wheels 1 FL, 2 FR, 3 RL, 4 RR
-(note §1, REC); ISO axes, y left, yaw positive counter-clockwise.
+Every vehicle and tire constant is a parameter (CAR_PARAMS, a `Car`), in the filters'
+CONFIG and, separately, in the truth plant (plants/ev4wd.py), so a scenario gives each
+its car: the same one as the paper assumes ("vehicle parameters known"), or another to
+measure the mismatch. The defaults are the note's §5.2 suggestions (the paper gives
+none: note §0.2). Wheels 1 FL, 2 FR, 3 RL, 4 RR (note §1, REC); ISO axes, y left, yaw
+positive counter-clockwise.
 
 The model (note §2.9, §2.10), vectorised over any leading batch axes so the UPF runs
 N × 43 sigma points in one call:
@@ -21,36 +23,103 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
+from functools import cached_property
 
 import numpy as np
 
 from vehil.spec import Param, Signal
 
-# Note §5.2 [ASSUME] values.
-M = 1400.0  # kg
-I_Z = 1900.0  # kg m²
-L_F, L_R = 1.10, 1.45  # m, CG to front / rear axle
-TRACK = 1.50  # m
-H_CG = 0.50  # m
-R_W = 0.30  # m, rolling radius
-I_W = 1.2  # kg m², wheel + motor
-RHO, C_D, AREA = 1.206, 0.30, 2.2
-F_ROLL = 0.015
-G = 9.81
-# MF (13)-(17): pure-slip B, C, E and the combined-slip weights, S_H = 0.
-BX, CX, EX = 10.0, 1.9, 0.97
-BY, CY, EY = 10.0, 1.3, 0.0
-BXA, CXA = 10.0, 1.0
-BYK, CYK = 10.0, 1.0
-K_ALPHA0, K_Y0 = 60_000.0, 150_000.0  # N/rad, N/m: σ_α = 0.4 m (20)
-SIGMA = K_ALPHA0 / K_Y0
-WHEELBASE = L_F + L_R
-# Wheel centres (l_i, b_i), note §1.
-LX = np.array([L_F, L_F, -L_R, -L_R])
-BYW = np.array([TRACK / 2, -TRACK / 2, TRACK / 2, -TRACK / 2])
+# The car: every vehicle and tire constant of the model, a parameter of the filters (their
+# CONFIG) and, separately, of the truth plant. Defaults: note §5.2's [ASSUME] values.
+CAR_PARAMS = (
+    Param("m", "kg", default=1400.0, lo=200.0, hi=5000.0, doc="vehicle mass"),
+    Param("i_z", "kg*m^2", default=1900.0, lo=50.0, hi=20_000.0, doc="yaw inertia"),
+    Param("l_f", "m", default=1.10, lo=0.3, hi=3.0, doc="CG to front axle"),
+    Param("l_r", "m", default=1.45, lo=0.3, hi=3.0, doc="CG to rear axle"),
+    Param("track", "m", default=1.50, lo=0.8, hi=2.5, doc="track width, front = rear"),
+    Param("h_cg", "m", default=0.50, lo=0.1, hi=2.0, doc="CG height (load transfer)"),
+    Param("r_wheel", "m", default=0.30, lo=0.1, hi=1.0, doc="wheel rolling radius"),
+    Param("i_w", "kg*m^2", default=1.2, lo=0.05, hi=50.0, doc="wheel + motor inertia (21)"),
+    Param("rho", "kg/m^3", default=1.206, lo=0.5, hi=1.5, doc="air density (3)"),
+    Param("c_d", "1", default=0.30, lo=0.0, hi=2.0, doc="drag coefficient (3)"),
+    Param("a_f", "m^2", default=2.2, lo=0.5, hi=10.0, doc="frontal area (3)"),
+    Param("f_roll", "1", default=0.015, lo=0.0, hi=0.1, doc="rolling-resistance coefficient"),
+    Param("g", "m/s^2", default=9.81, lo=9.0, hi=10.5, doc="gravity"),
+    Param("b_x", "1", default=10.0, lo=1.0, hi=50.0, doc="MF B_x (14): k_κ0 = B_x C_x μF_z"),
+    Param("c_x", "1", default=1.9, lo=0.5, hi=3.0, doc="MF C_x (14)"),
+    Param("b_y", "1/rad", default=10.0, lo=1.0, hi=50.0, doc="MF B_y (15)"),
+    Param("c_y", "1", default=1.3, lo=0.5, hi=2.0, doc="MF C_y (15)"),
+    Param("e_y", "1", default=0.0, lo=-3.0, hi=1.0, doc="MF E_y (15)"),
+    Param("b_xa", "1/rad", default=10.0, lo=0.0, hi=50.0, doc="G_xα's B_xα (16), S_H = 0"),
+    Param("c_xa", "1", default=1.0, lo=0.5, hi=1.0, doc="G_xα's C_xα (16)"),
+    Param("b_yk", "1", default=10.0, lo=0.0, hi=50.0, doc="G_yκ's B_yκ (17), S_H = 0"),
+    Param("c_yk", "1", default=1.0, lo=0.5, hi=1.0, doc="G_yκ's C_yκ (17)"),
+    Param("sigma_y", "m", default=0.4, lo=0.05, hi=3.0, doc="relaxation length k_α0/k_y0 (20)"),
+    Param("tau_wdot", "s", default=0.02, lo=1e-3, hi=1.0, doc="ω̇ low-pass time constant (21)"),
+)
+
+
+@dataclass(frozen=True)
+class Car:
+    """The values of CAR_PARAMS, by name, and what the model derives from them."""
+
+    m: float
+    i_z: float
+    l_f: float
+    l_r: float
+    track: float
+    h_cg: float
+    r_wheel: float
+    i_w: float
+    rho: float
+    c_d: float
+    a_f: float
+    f_roll: float
+    g: float
+    b_x: float
+    c_x: float
+    b_y: float
+    c_y: float
+    e_y: float
+    b_xa: float
+    c_xa: float
+    b_yk: float
+    c_yk: float
+    sigma_y: float
+    tau_wdot: float
+
+    @classmethod
+    def of(cls, p: Mapping[str, float]) -> Car:
+        return cls(**{f.name: float(p[f.name]) for f in fields(cls)})
+
+    @property
+    def wheelbase(self) -> float:
+        return self.l_f + self.l_r
+
+    @property
+    def drag(self) -> float:
+        """½ ρ C_d A of (3)."""
+        return 0.5 * self.rho * self.c_d * self.a_f
+
+    @property
+    def roll(self) -> float:
+        """m g f of (3) on a level road."""
+        return self.m * self.g * self.f_roll
+
+    @cached_property
+    def lx(self) -> np.ndarray:
+        """Wheel centres' l_i (note §1)."""
+        return np.array([self.l_f, self.l_f, -self.l_r, -self.l_r])
+
+    @cached_property
+    def byw(self) -> np.ndarray:
+        """Wheel centres' b_i (note §1), left positive."""
+        return np.array([self.track / 2, -self.track / 2, self.track / 2, -self.track / 2])
+
+
+SHIPPED = Car.of({p.name: p.default for p in CAR_PARAMS})
 STEERED = np.array([1.0, 1.0, 0.0, 0.0])  # (22): front wheels only
-DRAG = 0.5 * RHO * C_D * AREA
 
 N_X, N_Y = 7, 7
 
@@ -73,7 +142,7 @@ OUTPUTS = (
 # Sensor noise of the plant (note §5.2) sets the nominal fixed R.
 SD_ACC, SD_GYRO, SD_W = 0.1, math.radians(0.5), 0.2
 
-PARAMS = (
+TUNING = (
     Param("T", "s", default=0.01, lo=1e-3, hi=0.05, doc="filter sample time"),
     Param("mu", "1", default=0.85, lo=0.05, hi=1.2, doc="road friction (known, §2.7)"),
     Param("vx0", "m/s", default=22.2, lo=0.5, hi=60.0, doc="initial v_x"),
@@ -105,6 +174,8 @@ PARAMS = (
     Param("d_w3", "s^2/m", default=0.5, lo=0.0, hi=1e2, doc="1/(2 m/s²) of |a_y|"),
     Param("r_clip", "1", default=100.0, lo=1.0, hi=1e6, doc="r within fixed R ×/÷ r_clip"),
 )
+# Every filter's first: the tuning, then the car (the C's EV_P_* order).
+PARAMS = (*TUNING, *CAR_PARAMS)
 # The 7-state filters' own, after PARAMS: the reduced EKF has no force states.
 FORCE_PARAMS = (
     Param("p0_f", "N^2", default=4e4, lo=1.0, hi=1e8, doc="P0 of each lateral force"),
@@ -112,13 +183,14 @@ FORCE_PARAMS = (
 )
 
 
-def loads(ax: float | np.ndarray, ay: float | np.ndarray) -> np.ndarray:
+def loads(ax: float | np.ndarray, ay: float | np.ndarray, car: Car) -> np.ndarray:
     """F_z,i (..., 4) from the CG accelerations: static + quasi-static transfer (note §5.2)."""
     ax, ay = np.asarray(ax), np.asarray(ay)
-    front = M * G * L_R / (2 * WHEELBASE) - M * ax * H_CG / (2 * WHEELBASE)
-    rear = M * G * L_F / (2 * WHEELBASE) + M * ax * H_CG / (2 * WHEELBASE)
-    lat_f = M * ay * H_CG * L_R / (TRACK * WHEELBASE)
-    lat_r = M * ay * H_CG * L_F / (TRACK * WHEELBASE)
+    m, wb, h = car.m, car.wheelbase, car.h_cg
+    front = m * car.g * car.l_r / (2 * wb) - m * ax * h / (2 * wb)
+    rear = m * car.g * car.l_f / (2 * wb) + m * ax * h / (2 * wb)
+    lat_f = m * ay * h * car.l_r / (car.track * wb)
+    lat_r = m * ay * h * car.l_f / (car.track * wb)
     fz = np.stack([front - lat_f, front + lat_f, rear - lat_r, rear + lat_r], axis=-1)
     return np.maximum(fz, 0.0)
 
@@ -153,14 +225,12 @@ class Inputs:
 
 class Preprocess:
     """Sensors -> u (note §8.1 item 2): F_ix = (T_i - I_w ω̇_i)/R with ω̇ the measured
-    wheel speed's difference through a first-order low-pass (τ = 20 ms), and F_z from
-    the measured accelerations."""
+    wheel speed's difference through a first-order low-pass (the car's τ_ω̇), and F_z
+    from the measured accelerations."""
 
-    TAU = 0.02
-
-    def __init__(self, T: float):
-        self.T = T
-        self.a = T / (self.TAU + T)
+    def __init__(self, T: float, car: Car):
+        self.T, self.car = T, car
+        self.a = T / (car.tau_wdot + T)
         self.w_prev: np.ndarray | None = None
         self.w_dot = np.zeros(4)
 
@@ -170,8 +240,8 @@ class Preprocess:
         if self.w_prev is not None:
             self.w_dot = self.w_dot + self.a * ((w - self.w_prev) / self.T - self.w_dot)
         self.w_prev = w.copy()
-        fx = (tq - I_W * self.w_dot) / R_W
-        return Inputs(float(delta), fx, loads(ax, ay), np.array([ax, ay, gz, *w]))
+        fx = (tq - self.car.i_w * self.w_dot) / self.car.r_wheel
+        return Inputs(float(delta), fx, loads(ax, ay, self.car), np.array([ax, ay, gz, *w]))
 
 
 @dataclass(frozen=True)
@@ -184,29 +254,29 @@ class Wheels:
     kappa: np.ndarray  # κ̂ (28)
 
 
-def wheels(x: np.ndarray, u: Inputs, mu: float, linear: bool = False) -> Wheels:
+def wheels(x: np.ndarray, u: Inputs, car: Car, mu: float, linear: bool = False) -> Wheels:
     """With `linear`, the tires' linear range: α = -v_iy / max(|v_ix|, 0.5),
     F_y = B_y C_y μF_z α and κ̂ = F_x / (B_x C_x μF_z), no combined-slip weights."""
     vx, vy, r = x[..., 0:1], x[..., 1:2], x[..., 2:3]
     d = u.delta * STEERED
     cd, sd = np.cos(d), np.sin(d)
-    vX, vY = vx - BYW * r, vy + LX * r  # (8)-(9) in x_R y_R
+    vX, vY = vx - car.byw * r, vy + car.lx * r  # (8)-(9) in x_R y_R
     vix = cd * vX + sd * vY  # (11)-(12)
     viy = -sd * vX + cd * vY
     zz = viy / np.maximum(np.abs(vix), 0.5)
     dmax = mu * u.fz
+    k0 = car.b_x * car.c_x * np.maximum(dmax, 1.0)  # k_κ0 (27) without G_xα
     if linear:
         alpha = -zz
-        kappa = u.fx / (BX * CX * np.maximum(dmax, 1.0))
-        return Wheels(vix, alpha, BY * CY * dmax * alpha, kappa)
+        return Wheels(vix, alpha, car.b_y * car.c_y * dmax * alpha, u.fx / k0)
     alpha = -np.arctan(zz)
-    kappa = u.fx / (weight(alpha, BXA, CXA) * BX * CX * np.maximum(dmax, 1.0))  # (27)-(28)
-    fy_qs = weight(kappa, BYK, CYK) * mf(alpha, BY, CY, EY, dmax)
+    kappa = u.fx / (weight(alpha, car.b_xa, car.c_xa) * k0)  # (27)-(28)
+    fy_qs = weight(kappa, car.b_yk, car.c_yk) * mf(alpha, car.b_y, car.c_y, car.e_y, dmax)
     return Wheels(vix, alpha, fy_qs, kappa)
 
 
 def body_forces(
-    x: np.ndarray, u: Inputs, fy: np.ndarray | None = None
+    x: np.ndarray, u: Inputs, car: Car, fy: np.ndarray | None = None
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """F_x, F_y, M at the CG (4) with the resistances (3), θ = 0, from the tire-frame
     lateral forces fy: the states F̃_iy unless given (the 3-state model's quasi-static ones)."""
@@ -216,43 +286,49 @@ def body_forces(
     fX = cd * u.fx - sd * fy  # (1)-(2)
     fY = sd * u.fx + cd * fy
     vx = x[..., 0]
-    resist = DRAG * vx * np.abs(vx) + M * G * F_ROLL * roll_tanh(vx)
-    return fX.sum(-1) - resist, fY.sum(-1), (LX * fY - BYW * fX).sum(-1)
+    resist = car.drag * vx * np.abs(vx) + car.roll * roll_tanh(vx)
+    return fX.sum(-1) - resist, fY.sum(-1), (car.lx * fY - car.byw * fX).sum(-1)
 
 
-def f(x: np.ndarray, u: Inputs, mu: float) -> np.ndarray:
+def f(x: np.ndarray, u: Inputs, car: Car, mu: float) -> np.ndarray:
     """ẋ (26)."""
-    fx, fy, mz = body_forces(x, u)
+    fx, fy, mz = body_forces(x, u, car)
     vx, vy, r = x[..., 0], x[..., 1], x[..., 2]
-    w = wheels(x, u, mu)
-    dF = np.abs(w.vix) / SIGMA * (w.fy_qs - x[..., 3:7])  # (20)
+    w = wheels(x, u, car, mu)
+    dF = np.abs(w.vix) / car.sigma_y * (w.fy_qs - x[..., 3:7])  # (20)
     return np.concatenate(
-        [np.stack([fx / M + r * vy, fy / M - r * vx, mz / I_Z], axis=-1), dF], axis=-1
+        [np.stack([fx / car.m + r * vy, fy / car.m - r * vx, mz / car.i_z], axis=-1), dF],
+        axis=-1,
     )
 
 
-def step(x: np.ndarray, u: Inputs, mu: float, T: float) -> np.ndarray:
+def step(x: np.ndarray, u: Inputs, car: Car, mu: float, T: float) -> np.ndarray:
     """x_{k+1} = x_k + T f(x_k, u_k) (31) without the noise."""
-    return x + T * f(x, u, mu)
+    return x + T * f(x, u, car, mu)
 
 
 def h(
-    x: np.ndarray, u: Inputs, mu: float, quasi_static: bool = False, linear: bool = False
+    x: np.ndarray,
+    u: Inputs,
+    car: Car,
+    mu: float,
+    quasi_static: bool = False,
+    linear: bool = False,
 ) -> np.ndarray:
     """y (30): a_x, a_y, γ, ω_i = v_ix (1 + κ̂_i) / R; with quasi_static, x is [v_x, v_y, γ]
     and the lateral forces are G_yκ F_y0 at x (linear tires: see `wheels`)."""
-    w = wheels(x, u, mu, linear)
-    fx, fy, _ = body_forces(x, u, w.fy_qs if quasi_static else None)
-    om = w.vix * (1 + w.kappa) / R_W
-    return np.concatenate([np.stack([fx / M, fy / M, x[..., 2]], axis=-1), om], axis=-1)
+    w = wheels(x, u, car, mu, linear)
+    fx, fy, _ = body_forces(x, u, car, w.fy_qs if quasi_static else None)
+    om = w.vix * (1 + w.kappa) / car.r_wheel
+    return np.concatenate([np.stack([fx / car.m, fy / car.m, x[..., 2]], axis=-1), om], axis=-1)
 
 
-def step3(x: np.ndarray, u: Inputs, T: float, fy: np.ndarray) -> np.ndarray:
+def step3(x: np.ndarray, u: Inputs, car: Car, T: float, fy: np.ndarray) -> np.ndarray:
     """The 3-state model [v_x, v_y, γ]: (26)'s first three rows with the given lateral
     forces (the quasi-static G_yκ F_y0: (20) at steady state)."""
-    fx, fy, mz = body_forces(x, u, fy)
+    fx, fy, mz = body_forces(x, u, car, fy)
     vx, vy, r = x[..., 0], x[..., 1], x[..., 2]
-    return x + T * np.stack([fx / M + r * vy, fy / M - r * vx, mz / I_Z], axis=-1)
+    return x + T * np.stack([fx / car.m + r * vy, fy / car.m - r * vx, mz / car.i_z], axis=-1)
 
 
 def adaptive_r(u: Inputs, kappa: np.ndarray, p: Mapping[str, float]) -> np.ndarray:
@@ -304,8 +380,8 @@ def outputs(x: np.ndarray) -> np.ndarray:
     return np.r_[x, math.degrees(math.atan2(x[1], max(x[0], 0.1)))]
 
 
-def _resist_slope(vx: float) -> float:
-    return 2 * DRAG * abs(vx) + M * G * F_ROLL * (1 - float(roll_tanh(vx)) ** 2) / 0.5
+def _resist_slope(vx: float, car: Car) -> float:
+    return 2 * car.drag * abs(vx) + car.roll * (1 - float(roll_tanh(vx)) ** 2) / 0.5
 
 
 @dataclass(frozen=True)
@@ -317,76 +393,87 @@ class Slopes:
     dqs: np.ndarray
 
 
-def slopes(x: np.ndarray, u: Inputs, mu: float, w: Wheels, linear: bool = False) -> Slopes:
-    """κ̂'s dependence on α through G_xα (28) included. E_y = 0, so
-    dF_y0/dα = D C B cos(C atan(Bα)) / (1 + (Bα)²). Linear tires: see `wheels`."""
+def slopes(
+    x: np.ndarray, u: Inputs, car: Car, mu: float, w: Wheels, linear: bool = False
+) -> Slopes:
+    """κ̂'s dependence on α through G_xα (28) included. With z = Bα - E (Bα - atan(Bα)),
+    dF_y0/dα = D C cos(C atan z) B (1 - E + E / (1 + (Bα)²)) / (1 + z²). Linear tires:
+    see `wheels`."""
     vx, vy, r = x[:3]
+    lx, byw = car.lx, car.byw
     d = u.delta * STEERED
     cd, sd = np.cos(d), np.sin(d)
-    vX, vY = vx - BYW * r, vy + LX * r
+    vX, vY = vx - byw * r, vy + lx * r
     viy = -sd * vX + cd * vY
     den = np.maximum(np.abs(w.vix), 0.5)
     sgn = np.sign(w.vix)
     dalpha, dks, dqss = np.zeros((4, 3)), np.zeros(4), np.zeros(4)
+    by, cy, ey = car.b_y, car.c_y, car.e_y
     for i in range(4):
-        L = np.array([cd[i], sd[i], -BYW[i] * cd[i] + LX[i] * sd[i]])
-        dviy = np.array([-sd[i], cd[i], sd[i] * BYW[i] + cd[i] * LX[i]])
+        L = np.array([cd[i], sd[i], -byw[i] * cd[i] + lx[i] * sd[i]])
+        dviy = np.array([-sd[i], cd[i], sd[i] * byw[i] + cd[i] * lx[i]])
         dden = sgn[i] * L if abs(w.vix[i]) > 0.5 else np.zeros(3)
         zz = viy[i] / den[i]
         dalpha[i] = -(dviy / den[i] - viy[i] / den[i] ** 2 * dden) / (1 if linear else 1 + zz * zz)
         if linear:
-            dqss[i] = BY * CY * mu * u.fz[i]
+            dqss[i] = by * cy * mu * u.fz[i]
             continue
         a, k = float(w.alpha[i]), float(w.kappa[i])
-        ba, bxa, bk = BY * a, BXA * a, BYK * k
+        ba, bxa, bk = by * a, car.b_xa * a, car.b_yk * k
         # κ̂ = F_x / (G_xα(α) k): dκ̂/dα = -κ̂ G_xα' / G_xα
-        g_xa = math.cos(CXA * math.atan(bxa))
-        dks[i] = k * math.sin(CXA * math.atan(bxa)) * CXA * BXA / (1 + bxa * bxa) / g_xa
+        cxa, cyk = car.c_xa, car.c_yk
+        g_xa = math.cos(cxa * math.atan(bxa))
+        dks[i] = k * math.sin(cxa * math.atan(bxa)) * cxa * car.b_xa / (1 + bxa * bxa) / g_xa
         dmax = mu * u.fz[i]
-        f0 = dmax * math.sin(CY * math.atan(ba))
-        df0 = dmax * CY * BY * math.cos(CY * math.atan(ba)) / (1 + ba * ba)
-        g_yk = math.cos(CYK * math.atan(bk))
-        dg_yk = -math.sin(CYK * math.atan(bk)) * CYK * BYK / (1 + bk * bk)
+        z = ba - ey * (ba - math.atan(ba))
+        f0 = dmax * math.sin(cy * math.atan(z))
+        dz = by * (1 - ey + ey / (1 + ba * ba))
+        df0 = dmax * cy * math.cos(cy * math.atan(z)) * dz / (1 + z * z)
+        g_yk = math.cos(cyk * math.atan(bk))
+        dg_yk = -math.sin(cyk * math.atan(bk)) * cyk * car.b_yk / (1 + bk * bk)
         dqss[i] = g_yk * df0 + f0 * dg_yk * dks[i]  # d(G_yκ F_y0)/dα
     return Slopes(dalpha, dks, dqss)
 
 
-def _omega_rows(u: Inputs, w: Wheels, s: Slopes) -> np.ndarray:
+def _omega_rows(u: Inputs, car: Car, w: Wheels, s: Slopes) -> np.ndarray:
     """∂ω_i/∂(v_x, v_y, γ) (4, 3) from (29)."""
     d = u.delta * STEERED
     cd, sd = np.cos(d), np.sin(d)
-    L = np.stack([cd, sd, -BYW * cd + LX * sd], axis=-1)
-    return (L * (1 + w.kappa[:, None]) + (w.vix * s.dk)[:, None] * s.dalpha) / R_W
+    L = np.stack([cd, sd, -car.byw * cd + car.lx * sd], axis=-1)
+    return (L * (1 + w.kappa[:, None]) + (w.vix * s.dk)[:, None] * s.dalpha) / car.r_wheel
 
 
-def jacobians(x: np.ndarray, u: Inputs, mu: float, T: float) -> tuple[np.ndarray, np.ndarray]:
+def jacobians(
+    x: np.ndarray, u: Inputs, car: Car, mu: float, T: float
+) -> tuple[np.ndarray, np.ndarray]:
     """F = I + T ∂f/∂x and H = ∂h/∂x at one state, analytic (`slopes`)."""
     vx, vy, r = x[:3]
     d = u.delta * STEERED
     cd, sd = np.cos(d), np.sin(d)
-    w = wheels(x, u, mu)
-    s = slopes(x, u, mu, w)
+    w = wheels(x, u, car, mu)
+    s = slopes(x, u, car, mu, w)
+    m, lx, byw = car.m, car.lx, car.byw
     J = np.zeros((N_X, N_X))
     H = np.zeros((N_Y, N_X))
-    J[0, 0] = H[0, 0] = -_resist_slope(vx) / M
+    J[0, 0] = H[0, 0] = -_resist_slope(vx, car) / m
     J[0, 1], J[0, 2] = r, vy
     J[1, 0], J[1, 2] = -r, -vx
-    J[0, 3:] = H[0, 3:] = -sd / M
-    J[1, 3:] = H[1, 3:] = cd / M
-    J[2, 3:] = (LX * cd + BYW * sd) / I_Z
+    J[0, 3:] = H[0, 3:] = -sd / m
+    J[1, 3:] = H[1, 3:] = cd / m
+    J[2, 3:] = (lx * cd + byw * sd) / car.i_z
     H[2, 2] = 1.0
-    H[3:, :3] = _omega_rows(u, w, s)
+    H[3:, :3] = _omega_rows(u, car, w, s)
     sgn = np.sign(w.vix)
     for i in range(4):
-        L = np.array([cd[i], sd[i], -BYW[i] * cd[i] + LX[i] * sd[i]])
+        L = np.array([cd[i], sd[i], -byw[i] * cd[i] + lx[i] * sd[i]])
         q = w.fy_qs[i] - x[3 + i]
-        J[3 + i, :3] = (sgn[i] * L * q + abs(w.vix[i]) * s.dqs[i] * s.dalpha[i]) / SIGMA
-        J[3 + i, 3 + i] = -abs(w.vix[i]) / SIGMA
+        J[3 + i, :3] = (sgn[i] * L * q + abs(w.vix[i]) * s.dqs[i] * s.dalpha[i]) / car.sigma_y
+        J[3 + i, 3 + i] = -abs(w.vix[i]) / car.sigma_y
     return np.eye(N_X) + T * J, H
 
 
 def jacobians3(
-    x: np.ndarray, u: Inputs, T: float, s: Slopes, w: Wheels | None
+    x: np.ndarray, u: Inputs, car: Car, T: float, s: Slopes, w: Wheels | None
 ) -> tuple[np.ndarray, np.ndarray | None]:
     """The 3-state model's F (3×3) and, given the wheel terms, H (7×3), the forces
     entering through their slopes s."""
@@ -394,17 +481,17 @@ def jacobians3(
     d = u.delta * STEERED
     cd, sd = np.cos(d), np.sin(d)
     dfy = s.dqs[:, None] * s.dalpha  # (4, 3)
-    arms = np.stack([-sd, cd, LX * cd + BYW * sd])  # ∂(ΣF_X, ΣF_Y, M_z)/∂F_iy
+    arms = np.stack([-sd, cd, car.lx * cd + car.byw * sd])  # ∂(ΣF_X, ΣF_Y, M_z)/∂F_iy
     Jf = arms @ dfy
-    rs = _resist_slope(vx) / M
+    rs = _resist_slope(vx, car) / car.m
     J = np.array([[-rs, r, vy], [-r, 0.0, -vx], [0.0, 0.0, 0.0]])
-    J += Jf / np.array([[M], [M], [I_Z]])
+    J += Jf / np.array([[car.m], [car.m], [car.i_z]])
     if w is None:
         return np.eye(3) + T * J, None
     H = np.zeros((N_Y, 3))
-    H[0] = Jf[0] / M
+    H[0] = Jf[0] / car.m
     H[0, 0] -= rs
-    H[1] = Jf[1] / M
+    H[1] = Jf[1] / car.m
     H[2, 2] = 1.0
-    H[3:] = _omega_rows(u, w, s)
+    H[3:] = _omega_rows(u, car, w, s)
     return np.eye(3) + T * J, H

@@ -1,13 +1,15 @@
 """A distributed-drive EV with four in-wheel motors, the ground truth of seed 001.
 
-The vehicle and tire numbers are note §5.2's suggestions, shared with the filters
-(models/ev4wd.py, where each is listed); the paper gives none (note §0.2)
-and used CarSim. This plant is richer than the filters' 7-state model (note §8.2):
+The car is the plant's own parameters, named as the filters' (vehil.models.ev4wd's
+CAR_PARAMS but ω̇'s low-pass, which is the filters' preprocessing); their defaults,
+note §5.2's suggestions, are the shipped car the filters also default to. The paper
+gives none (note §0.2) and used CarSim. This plant is richer than the filters'
+7-state model (note §8.2):
 - planar body v_x, v_y, γ plus position and heading for the driver; four wheel
   rotations I_w ω̇_i = T_i - R F_ix driven (and braked: regenerative) by the motors;
 - the combined-slip MF (13)-(19) on the *true* slip ratio κ_i = (ω_i R - v_ix) /
   max(|v_ix|, 3 m/s) (the floor keeps the wheel ODE stable at 1 ms), F_x quasi-static,
-  F_y through the first-order relaxation (20), σ_α = 0.4 m;
+  F_y through the first-order relaxation (20) over `sigma_y`;
 - quasi-static load transfer (note §5.2) from the last step's a_x, a_y;
 - aero drag and rolling resistance (3), θ = 0; friction μ is a parameter;
 - per-wheel traction control and ABS (note §8.2): a wheel whose |κ| passes 0.12 has
@@ -31,12 +33,12 @@ Sensors (`noise` = 1, production-like, note §5.2): a_x, a_y σ 0.1 m/s² with b
 scales the σ (the biases stay).
 
 The car is the plant's own, not the filters' (their model is vehil.models.ev4wd; this
-module evaluates its tires itself). At the defaults it is the note's vehicle with the
-filters' tire coefficients; its mismatch: mass and yaw inertia (`m_scale`, `iz_scale`),
-the tires' B and C (`bx_scale`, `by_scale`, `cy_scale`), a load-sensitive friction
+module evaluates its tires itself): a scenario names the car in the plant and, to
+match or not, in the estimator. Beyond the filters' model: the longitudinal MF's
+curvature `e_x` (the filters take F_x from the motors), a load-sensitive friction
 (`load_sens`: μ_eff = μ (1 - load_sens (F_z - F_z0)/F_z0), F_z0 the static load, so a
-loaded tire grips less per newton, as real tires do), the lateral relaxation length
-`sigma_y` (the filters' is 0.4 m), a longitudinal one `sigma_x` (0: quasi-static), and
+loaded tire grips less per newton, as real tires do), a longitudinal relaxation length
+`sigma_x` (0: quasi-static), and
 load transfer through the body's roll and pitch with time constants `roll_tau`,
 `pitch_tau` (0: quasi-static, as the filters assume).
 """
@@ -45,6 +47,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterator, Mapping
+from dataclasses import asdict
 
 import numpy as np
 
@@ -81,13 +84,13 @@ def magic_formula(x: np.ndarray, b: float, c: float, e: float, d: np.ndarray) ->
     return d * np.sin(c * np.arctan(bx - e * (bx - np.arctan(bx))))
 
 
-def transfer_loads(ax: float, ay: float, m: float) -> np.ndarray:
-    """F_z,i: static plus the steady transfer of a body of mass m at accelerations ax, ay."""
-    wb, h = ev.WHEELBASE, ev.H_CG
-    front = m * ev.G * ev.L_R / (2 * wb) - m * ax * h / (2 * wb)
-    rear = m * ev.G * ev.L_F / (2 * wb) + m * ax * h / (2 * wb)
-    lat_f = m * ay * h * ev.L_R / (ev.TRACK * wb)
-    lat_r = m * ay * h * ev.L_F / (ev.TRACK * wb)
+def transfer_loads(ax: float, ay: float, car: ev.Car) -> np.ndarray:
+    """F_z,i: static plus the steady transfer of the car's body at accelerations ax, ay."""
+    m, wb, h = car.m, car.wheelbase, car.h_cg
+    front = m * car.g * car.l_r / (2 * wb) - m * ax * h / (2 * wb)
+    rear = m * car.g * car.l_f / (2 * wb) + m * ax * h / (2 * wb)
+    lat_f = m * ay * h * car.l_r / (car.track * wb)
+    lat_r = m * ay * h * car.l_f / (car.track * wb)
     return np.maximum(np.array([front - lat_f, front + lat_f, rear - lat_r, rear + lat_r]), 0.0)
 
 
@@ -108,16 +111,16 @@ def _stream(
     v_set = p["speed"] / 3.6
     vx, vy, r = v_set, 0.0, 0.0
     X, Y, psi = -30.0, 0.0, 0.0  # the lane change starts 30 m + 15 m ahead
-    w = np.full(4, v_set / ev.R_W)
+    car = ev.Car.of({**asdict(ev.SHIPPED), **p})  # ω̇'s τ: not the plant's
+    w = np.full(4, v_set / car.r_wheel)
     fy = np.zeros(4)
     ax = ay = 0.0
     limit = np.full(4, T_MAX)
     cutting = np.zeros(4, bool)
     integ = 0.0
-    lx, byw, st = ev.LX, ev.BYW, ev.STEERED
-    mass, i_z = ev.M * p["m_scale"], ev.I_Z * p["iz_scale"]
-    bx, by, cy = ev.BX * p["bx_scale"], ev.BY * p["by_scale"], ev.CY * p["cy_scale"]
-    fz0 = transfer_loads(0.0, 0.0, mass)
+    lx, byw, st = car.lx, car.byw, ev.STEERED
+    mass, i_z = car.m, car.i_z
+    fz0 = transfer_loads(0.0, 0.0, car)
     fz = fz0.copy()
     fx = np.zeros(4)
     k_roll, k_pitch = _lag(p["roll_tau"], T / sub), _lag(p["pitch_tau"], T / sub)
@@ -143,7 +146,7 @@ def _stream(
                     gy = dlc_path(gx, p["dlc_offset"], p["dlc_length"])
                     dx, dy = gx - X, gy - Y
                     yb = -math.sin(psi) * dx + math.cos(psi) * dy
-                    delta = math.atan(2 * ev.WHEELBASE * yb / (dx * dx + dy * dy))
+                    delta = math.atan(2 * car.wheelbase * yb / (dx * dx + dy * dy))
                 elif man == 1:
                     fade = min(max(t - 1.0, 0.0), 1.0)
                     delta = (
@@ -162,8 +165,8 @@ def _stream(
                 else:
                     err = v_set - vx
                     integ += err * dt
-                    resist = ev.DRAG * vx * vx + mass * ev.G * ev.F_ROLL
-                    demand = ev.R_W * (resist + mass * (1.5 * err + 0.3 * integ)) / 4
+                    resist = car.drag * vx * vx + car.roll
+                    demand = car.r_wheel * (resist + mass * (1.5 * err + 0.3 * integ)) / 4
                 # Wheels: kinematics and slips.
                 d = delta * st
                 cd, sd = np.cos(d), np.sin(d)
@@ -171,7 +174,7 @@ def _stream(
                 vix = cd * vX + sd * vY
                 viy = -sd * vX + cd * vY
                 alpha = -np.arctan(viy / np.maximum(np.abs(vix), 0.5))
-                kappa = (w * ev.R_W - vix) / np.maximum(np.abs(vix), V_FLOOR)
+                kappa = (w * car.r_wheel - vix) / np.maximum(np.abs(vix), V_FLOOR)
                 # TCS / ABS: cut the torque limit while a wheel slips, restore it after.
                 cutting = np.where(np.abs(kappa) > SLIP_ON, True, cutting)
                 cutting = np.where(np.abs(kappa) < SLIP_OFF, False, cutting)
@@ -180,17 +183,17 @@ def _stream(
                 # Loads through the body's pitch and roll, then the tires.
                 ax_l += k_pitch * (ax - ax_l)
                 ay_l += k_roll * (ay - ay_l)
-                fz = transfer_loads(ax_l, ay_l, mass)
+                fz = transfer_loads(ax_l, ay_l, car)
                 dmax = mu * fz * (1.0 - p["load_sens"] * (fz - fz0) / fz0)
-                fx0 = magic_formula(kappa, bx, ev.CX, ev.EX, dmax)
-                fx_qs = np.cos(ev.CXA * np.arctan(ev.BXA * alpha)) * fx0
-                fy_qs = np.cos(ev.CYK * np.arctan(ev.BYK * kappa)) * magic_formula(
-                    alpha, by, cy, ev.EY, dmax
+                fx0 = magic_formula(kappa, car.b_x, car.c_x, p["e_x"], dmax)
+                fx_qs = np.cos(car.c_xa * np.arctan(car.b_xa * alpha)) * fx0
+                fy_qs = np.cos(car.c_yk * np.arctan(car.b_yk * kappa)) * magic_formula(
+                    alpha, car.b_y, car.c_y, car.e_y, dmax
                 )
                 if p["sigma_x"] <= 0:
                     fx = fx_qs
                 fX, fY = cd * fx - sd * fy, sd * fx + cd * fy
-                resist = ev.DRAG * vx * abs(vx) + mass * ev.G * ev.F_ROLL * math.tanh(vx / 0.5)
+                resist = car.drag * vx * abs(vx) + car.roll * math.tanh(vx / 0.5)
                 ax = (fX.sum() - resist) / mass
                 ay = fY.sum() / mass
                 mz = float((lx * fY - byw * fX).sum())
@@ -198,8 +201,8 @@ def _stream(
                     out[k - k0] = (ax, ay, r, *w, delta, *tq)
                     truth[k - k0] = (vx, vy, r, *fy, *kappa)
                 # Euler step.
-                w = np.maximum(w + dt * (tq - ev.R_W * fx) / ev.I_W, 0.0)
-                fy = fy + dt * np.abs(vix) / p["sigma_y"] * (fy_qs - fy)
+                w = np.maximum(w + dt * (tq - car.r_wheel * fx) / car.i_w, 0.0)
+                fy = fy + dt * np.abs(vix) / car.sigma_y * (fy_qs - fy)
                 if p["sigma_x"] > 0:
                     fx = fx + dt * np.abs(vix) / p["sigma_x"] * (fx_qs - fx)
                 vx, vy, r = vx + dt * (ax + r * vy), vy + dt * (ay - r * vx), r + dt * mz / i_z
@@ -231,13 +234,9 @@ SPEC = register(
             ),
             Param("steer_hz", "Hz", default=0.5, lo=0.01, hi=5.0, doc="sine frequency"),
             Param("noise", "1", default=1, lo=0, hi=10, doc="sensor σ × production-like"),
-            Param("m_scale", "1", default=1.0, lo=0.5, hi=2.0, doc="true mass / the note's"),
-            Param("iz_scale", "1", default=1.0, lo=0.5, hi=2.0, doc="true yaw inertia / note's"),
-            Param("bx_scale", "1", default=1.0, lo=0.3, hi=3.0, doc="tire B_x / the filters'"),
-            Param("by_scale", "1", default=1.0, lo=0.3, hi=3.0, doc="tire B_y / the filters'"),
-            Param("cy_scale", "1", default=1.0, lo=0.5, hi=1.8, doc="tire C_y / the filters'"),
+            *(q for q in ev.CAR_PARAMS if q.name != "tau_wdot"),
+            Param("e_x", "1", default=0.97, lo=-3.0, hi=1.0, doc="tire MF E_x"),
             Param("load_sens", "1", default=0.0, lo=0.0, hi=0.5, doc="μ's fall per load rise"),
-            Param("sigma_y", "m", default=ev.SIGMA, lo=0.05, hi=3.0, doc="lateral relaxation"),
             Param("sigma_x", "m", default=0.0, lo=0.0, hi=3.0, doc="longit. relaxation, 0 none"),
             Param("roll_tau", "s", default=0.0, lo=0.0, hi=2.0, doc="roll lag of load transfer"),
             Param("pitch_tau", "s", default=0.0, lo=0.0, hi=2.0, doc="pitch lag of transfer"),
