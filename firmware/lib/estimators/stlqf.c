@@ -270,7 +270,9 @@ static int32_t scale_pow2(int64_t x, int16_t up, uint8_t *st)
     return v * ((int32_t)1 << up);
 }
 
-/* v 2^-down, rounded half up, by whole bytes and then bits (|v| < 2^30). */
+/* v 2^-down, rounded half up, by whole bytes and then bits (|v| < 2^30): floor((v +
+ * 2^(down-1)) 2^-down) is (floor(v 2^(1-down)) + 1) >> 1, so no 2^(down-1) to form (a
+ * shift by a count known only at run time loops a bit at a time on the AVR). */
 static int32_t shift_down(int32_t v, uint8_t down)
 {
     if (down == 0u) {
@@ -279,11 +281,10 @@ static int32_t shift_down(int32_t v, uint8_t down)
     if (down > 30u) {
         return 0;
     }
-    v += (int32_t)1 << (down - 1u);
-    for (; down >= 8u; down -= 8u) {
+    for (down--; down >= 8u; down -= 8u) {
         v >>= 8;
     }
-    return v >> down;
+    return ((v >> down) + 1) >> 1;
 }
 
 /* The top half of v: by byte moves on the AVR, little-endian (avr-gcc calls a library
