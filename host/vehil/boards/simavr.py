@@ -31,9 +31,14 @@ class SimavrOptions:
     vcd: Path | None = None  # a VCD trace of the UART and the pins
     gdb_port: int | None = None  # simavr's gdb server, waits for gdb
     profile: tuple[str, ...] = ()  # the bridge's --profile options (vehil.fnprofile)
+    # UART0 on a loopback TCP socket instead of a pty: a pty hands its bytes on through a
+    # kernel worker thread, which a loaded host keeps waiting (round trips' tails).
+    tcp: bool = False
 
     def bridge_options(self) -> list[str]:
         args = ["--realtime"] if self.realtime else []
+        if self.tcp:
+            args += ["--tcp", "0"]
         if self.vcd:
             args += ["--vcd", str(self.vcd)]
         if self.gdb_port is not None:
@@ -66,7 +71,9 @@ class SimavrBoard(ProcessBoard):
         line = self.process.read_line(timeout_s=10.0)
         if not line.startswith(_READY_PREFIX):
             raise self.process.failure(f"printed {line!r} instead of its URL")
-        return line[len(_READY_PREFIX) :]
+        url = line[len(_READY_PREFIX) :]
+        # vehil's tcp:// (transports/protocol_tcp.py): counts the bytes waiting
+        return "tcp://" + url.removeprefix("socket://") if url.startswith("socket://") else url
 
 
 class SimavrRealtimeBoard(SimavrBoard):

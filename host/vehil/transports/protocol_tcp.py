@@ -1,5 +1,7 @@
 """`tcp://HOST:PORT`: pyserial's `socket://`, except that opening the port keeps what has
-already arrived.
+already arrived, and `in_waiting` counts the bytes waiting (`socket://`'s says 1 when
+there are any, so a reader asking for what is waiting took a frame a byte at a time, two
+system calls each: ~0.25 ms more a 30-byte reply on a loaded host).
 
 `socket://`'s open() ends by discarding its input (`reset_input_buffer`). QEMU started
 with `wait=on` runs the chip from the moment the host connects, so the board's boot INFO
@@ -8,6 +10,10 @@ booted (3 of 12 QEMU starts on a loaded 2-core host).
 """
 
 from __future__ import annotations
+
+import fcntl
+import struct
+import termios
 
 from serial.urlhandler import protocol_socket
 
@@ -31,3 +37,10 @@ class Serial(protocol_socket.Serial):
         if scheme != "tcp" or not sep:
             raise protocol_socket.SerialException(f"expected tcp://HOST:PORT, got {url!r}")
         return super().from_url("socket://" + rest)  # type: ignore[no-any-return]
+
+    @property
+    def in_waiting(self) -> int:
+        if not self.is_open:
+            raise protocol_socket.PortNotOpenError()
+        held = fcntl.ioctl(self._socket.fileno(), termios.FIONREAD, struct.pack("i", 0))
+        return int(struct.unpack("i", held)[0])
