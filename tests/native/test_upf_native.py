@@ -20,6 +20,7 @@ from vehil.estimators import upf
         ("s5-dlc100-low-mu-ukf", 10.0),
         ("s6-sine100-low-mu-ukf", 10.0),
         ("s1-dlc80-ekf3-suv", 20.0),
+        ("s1-dlc80-ekf-suv", 10.0),
     ],
 )
 def test_c_follows_the_reference(run_scenario, name, duration) -> None:  # noqa: ANN001
