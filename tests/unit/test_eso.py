@@ -113,6 +113,22 @@ def test_the_kfui_jacobian_matches_finite_differences() -> None:
         np.testing.assert_allclose(J[:, j], fd, rtol=1e-5, atol=1e-3)
 
 
+@pytest.mark.parametrize("dv", [-0.5, -3.0])
+def test_the_held_damper_keeps_its_peak_force_and_its_jacobian_matches(dv: float) -> None:
+    held = dataclasses.replace(NOMINAL, damper_hold=True)
+    peak = -NOMINAL.c1 / (2 * NOMINAL.c2)
+    assert held.damper(dv) == NOMINAL.damper(max(dv, peak))
+    x = np.array([0.02, dv, -0.01, 0.0])
+    J = held.jacobian(x)
+    for j in range(4):
+        step = np.zeros(4)
+        step[j] = 1e-7
+        fd = (np.array(held.deriv(x + step, 0, 0)) - np.array(held.deriv(x - step, 0, 0))) / 2e-7
+        np.testing.assert_allclose(J[:, j], fd, rtol=1e-5, atol=1e-3)
+    if dv < peak:
+        assert J[1, 1] == 0.0  # no damping past the peak, and never negative
+
+
 def test_the_printed_covariance_update_is_the_short_form() -> None:
     kf = kfui.KfUi(kfui.SPEC.param_values({}))
     rng = np.random.default_rng(1)

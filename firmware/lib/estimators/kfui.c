@@ -6,27 +6,36 @@
 #include "estimators/health.h"
 #include "proto/wire.h"
 
-enum { P_T, P_Q, P_RX, P_RA, P_P0, P_S0, P_NISMAX, P_NISWIN, P_XMAX, N_OWN };
+enum { P_T, P_Q, P_RX, P_RA, P_P0, P_S0, P_NISMAX, P_NISWIN, P_XMAX, P_HOLD, N_OWN };
 #define N_PARAMS (N_OWN + SUSP_ECU_N_PARAMS)
 
 static const ROM param_range_t ranges[N_OWN] = {
     {1e-4f, 0.05f, 30}, {1e-9f, 1e3f, 16}, {1e-9f, 1e3f, 16},
     {1e-9f, 1e3f, 16},  {0.0f, 1e3f, 16}, {0.0f, 1e3f, 16},
     {0.1f, 1e6f, 16},   {0.05f, 100.0f, 16}, {0.01f, 10.0f, 16},
+    {0.0f, 1.0f, 16},
 };
+
+/* The rate the damper acts at: with damper_hold the literal square keeps its peak
+ * compression force past dv_min = -c1 / 2c2 (docs/estimators/kfui.md, "Float32 against
+ * float64"); dv_min is -inf without it. */
+static float held(const kfui_state_t *s, float dv)
+{
+    return dv < s->c.dv_min ? s->c.dv_min : dv;
+}
 
 /* The strut's tangent stiffness k and damping c at deflection dx, rate dv (eq. 37). */
 static void strut_slopes(const kfui_state_t *s, float dx, float dv, float *k, float *c)
 {
     *k = s->ecu.model.k1 + dx * (s->c.k2_2 + s->c.k3_3 * dx);
-    *c = s->ecu.model.c1 + s->c.c2_2 * dv;
+    *c = s->ecu.model.c1 + s->c.c2_2 * held(s, dv);
 }
 
 /* ẍ_s and ẍ_us of the nominal model with the force u and the road input d (eqs. 4-5, 34). */
 static void accelerations(const kfui_state_t *s, const float *x, float u, float d, float *a)
 {
     const qcar_f32_t *m = &s->ecu.model;
-    float strut = qcar_strut_f32(m, x[0] - x[2], x[1] - x[3], 0);
+    float strut = qcar_strut_f32(m, x[0] - x[2], held(s, x[1] - x[3]), 0);
     a[0] = (u - strut) * s->c.inv_m_s;
     a[1] = (strut - m->k_us * (x[2] - d) - u) * s->c.inv_m_us;
 }
@@ -254,6 +263,9 @@ static uint8_t kfui_configure(void *state, uint8_t mode, const uint8_t *params)
         .k2_2 = 2.0f * m->k2,
         .k3_3 = 3.0f * m->k3,
         .c2_2 = 2.0f * m->c2,
+        .dv_min = get_f32(params + 4u * P_HOLD) >= 0.5f && m->c2 > 0.0f
+                      ? -m->c1 / (2.0f * m->c2)
+                      : -INFINITY,
     };
     kfui_reset(s);
     return 0;

@@ -25,6 +25,7 @@ typedef struct {
     float inv_m_s, inv_m_us, d1, inv_d1;   /* 1/m_s, 1/m_us, k_us/m_us, m_us/k_us */
     float T_m_s, T_m_us, T_d1;             /* T/m_s, T/m_us, T k_us/m_us */
     float k2_2, k3_3, c2_2;                /* 2 k2, 3 k3, 2 c2: the Jacobian's slopes */
+    float dv_min;                          /* the damper's held rate, -inf: none */
 } kfui_const_t;
 
 typedef struct {

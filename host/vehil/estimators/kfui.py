@@ -15,6 +15,7 @@ conditioning -> KF-UI -> controller, same inputs and outputs as `eso`.
 from __future__ import annotations
 
 from collections.abc import Mapping
+from dataclasses import replace
 
 import numpy as np
 from scipy.linalg import expm
@@ -30,7 +31,7 @@ from vehil.models.quarter_car import model_params, nominal
 
 class KfUi:
     def __init__(self, p: Mapping[str, float], rk4: bool = False):
-        self.m = nominal(p)
+        self.m = replace(nominal(p), damper_hold=p["damper_hold"] >= 0.5)
         self.T = p["T"]
         self.rk4 = rk4
         self.Q = p["q"] * np.eye(4)
@@ -147,6 +148,14 @@ SPEC = register(
                 lo=0.01,
                 hi=10.0,
                 doc="plausible |x̂_s|, |x̂_us|, |x̂_r| (about the conditioned frame's zero)",
+            ),
+            Param(
+                "damper_hold",
+                "1",
+                default=0,
+                lo=0,
+                hi=1,
+                doc="1: the model's literal damper holds its peak force past -c1/2c2",
             ),
             *conditioning_params(),
             *model_params(),

@@ -37,6 +37,7 @@ class QuarterCar:
     friction_v: float = 0.01  # m/s: tanh smoothing of the Coulomb friction
     sign_preserving: bool = False
     lift_off: bool = False
+    damper_hold: bool = False  # the literal damper held at its peak compression force
 
     @property
     def d1(self) -> float:
@@ -51,10 +52,19 @@ class QuarterCar:
         """f_s, eq. (2)."""
         return dx * (self.k1 + dx * (self.k2 + self.k3 * dx))
 
+    def held(self, dv: float) -> float:
+        """The rate the literal damper acts at: with damper_hold it keeps its peak
+        compression force (c1 + 2 c2 Δẋ = 0) past Δẋ = -c1 / 2c2 instead of weakening
+        and, past -c1 / c2, pushing."""
+        if self.damper_hold and not self.sign_preserving and self.c2 > 0.0:
+            return max(dv, -self.c1 / (2.0 * self.c2))
+        return dv
+
     def damper(self, dv: float) -> float:
         """f_d, eq. (2): literal square unless sign_preserving."""
-        sq = dv * abs(dv) if self.sign_preserving else dv * dv
-        f = self.c1 * dv + self.c2 * sq
+        dh = self.held(dv)
+        sq = dv * abs(dv) if self.sign_preserving else dh * dh
+        f = self.c1 * dh + self.c2 * sq
         if self.friction:
             f += self.friction * math.tanh(dv / self.friction_v)
         return f
@@ -96,7 +106,7 @@ class QuarterCar:
         """∂[ẋ1..ẋ4]/∂x of the nominal model (eq. 37), the road and u held."""
         dx, dv = x[0] - x[2], x[1] - x[3]
         ks = self.k1 + 2 * self.k2 * dx + 3 * self.k3 * dx * dx
-        dd = 2 * self.c2 * (abs(dv) if self.sign_preserving else dv)
+        dd = 2 * self.c2 * (abs(dv) if self.sign_preserving else self.held(dv))
         cs = self.c1 + dd
         ms, mu = self.m_s, self.m_us
         return np.array(
