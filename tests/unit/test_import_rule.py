@@ -41,3 +41,20 @@ def test_rule_sees_a_cross_import(tmp_path: Path) -> None:
     module.write_text("from vehil.estimators import base as b\nimport vehil.plants.sine\n")
     assert "vehil.estimators.base" in _imports(module)
     assert "vehil.plants.sine" in _imports(module)
+
+
+def test_the_ev_truth_takes_only_data_from_the_shared_ev_module() -> None:
+    """The EV plant steps its own car and tires: of vehil.models.ev4wd (which also holds
+    the filters' model) it may use the car's data, never a model function."""
+    from vehil.models import ev4wd
+
+    tree = ast.parse((PACKAGE / "plants" / "ev4wd.py").read_text())
+    used = {
+        node.attr
+        for node in ast.walk(tree)
+        if isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name)
+        if node.value.id == "ev"
+    }
+    assert used, "plants/ev4wd.py no longer reads vehil.models.ev4wd as `ev`: update the test"
+    calls = sorted(a for a in used if callable(getattr(ev4wd, a)) and a != "Car")
+    assert not calls, f"plants/ev4wd.py calls the filters' model: {', '.join(calls)}"
