@@ -63,9 +63,11 @@ void accel_cond_q_from_f32(accel_cond_q_t *q, const accel_cond_f32_t *c, uint8_t
     fx_factor_t p1 = fx_factor(c->lp.a1 + 2.0f, 0, status);
     fx_factor_t p2 = fx_factor(1.0f - c->lp.a2, 0, status);
     float b0 = 0.25f * (fx_factor_value(p1) - fx_factor_value(p2));
-    /* the high-pass runs on h/g: its g goes into the low-pass's b0 */
-    q->lp = (biquad_q_t){fx_factor(b0 * c->hp.g, 20 - (ACCEL_QH - 2), status), p1, p2};
-    q->beta = fx_factor(c->alpha * c->half_T, 4, status);
+    /* the high-pass runs on h/g: its g goes into the low-pass's b0, and so does the first
+     * trapezoid's β, so that the low-pass gives β l, the velocity's increment */
+    float beta = c->alpha * c->half_T;
+    q->lp = (biquad_q_t){fx_factor(b0 * c->hp.g * beta, 26 - (ACCEL_QH - 2), status), p1, p2};
+    q->beta = fx_factor(beta, 2, status);
     q->gamma = fx_factor(c->one_m_alpha, 0, status);
 }
 
@@ -90,10 +92,10 @@ float accel_cond_step_f32(const accel_cond_f32_t *c, accel_chan_f32_t *ch, float
     return ch->x;
 }
 
-/* Direct form I, input ACCEL_QH, output Q20, each product rounded into Q20, the poles as
- * y = b0 (x + 2 x1 + x2) + 2 y1 - y2 - p1 y1 + p2 y2 (a1 = p1 - 2, a2 = 1 - p2). x + 2 x1 + x2
+/* Direct form I, input ACCEL_QH, output Q26 (β l, m/s), each product rounded into Q26, the
+ * poles as y = b0 (x + 2 x1 + x2) + 2 y1 - y2 - p1 y1 + p2 y2 (a1 = p1 - 2, a2 = 1 - p2). x + 2 x1 + x2
  * reaches 4 times the input's range: it is summed two bits coarser (Q19, ±4,096 m/s²), in
- * int32 without overflow; b0 < 1 scales that rounding down. */
+ * int32 without overflow; b0 β < 1 scales that rounding down. */
 static int32_t biquad_q(const biquad_q_t *b, int32_t x, int32_t x1, int32_t x2, int32_t y1,
                         int32_t y2, uint8_t *s)
 {
@@ -113,7 +115,7 @@ int32_t accel_cond_step_q(const accel_cond_q_t *c, accel_chan_q_t *ch, int32_t a
     ch->dh = fx_sub(dh, fx_mul(hp->c12, 30, ch->h1, ACCEL_QH, ACCEL_QH, status), status);
     int32_t h = fx_add(ch->h1, ch->dh, status);
     int32_t l = biquad_q(&c->lp, h, ch->h1, ch->h2, ch->l1, ch->l2, status);
-    int32_t v = fx_add(ch->v, fx_mul_f(fx_add(l, ch->l1, status), c->beta, status), status);
+    int32_t v = fx_add(ch->v, fx_add(l, ch->l1, status), status);
     v = fx_sub(v, fx_mul_f(ch->v, c->gamma, status), status);
     int32_t x = fx_add(ch->x, fx_mul_f(fx_add(v, ch->v, status), c->beta, status), status);
     ch->x = fx_sub(x, fx_mul_f(ch->x, c->gamma, status), status);

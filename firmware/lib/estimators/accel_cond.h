@@ -8,9 +8,10 @@
  * 0.35 % of the displacement to float32 rounding): with Δ = y1 - y2,
  *   Δ <- (1 - c2) Δ + g (x - 2 x1 + x2) - c12 y1,  y = y1 + Δ,
  * c2 = 1 - a2 = 2√2 K g, c12 = 1 + a1 + a2 = 4 K² g, g = 1/(1 + √2 K + K²).
- * Fixed point: raw data as it comes, Q16; low-passed Q20 (m/s²), high-passed and its step
- * ACCEL_QH (Q21, ±1,024 m/s²: over four times the -235 m/s² an unsprung mass reaches on
- * hard bumps, docs/estimators/eso.md); velocity Q24, displacement Q28. Every coefficient
+ * Fixed point: raw data as it comes, Q16; high-passed and its step ACCEL_QH (Q21,
+ * ±1,024 m/s²: over four times the -235 m/s² an unsprung mass reaches on hard bumps,
+ * docs/estimators/eso.md); low-passed times the trapezoid's β = α T/2, the velocity's
+ * half-increment, Q26 (m/s); velocity Q26, displacement Q28. Every coefficient
  * is a factor (fx_factor_t: 16 significant bits at a shift chosen at CONFIG) that takes
  * its operand's Q to its result's. */
 #ifndef VEHIL_ESTIMATORS_ACCEL_COND_H
@@ -31,7 +32,7 @@ typedef struct {
 } biquad_f32_t;
 
 typedef struct {
-    fx_factor_t b0, p1, p2; /* Q19 sum -> Q20; p1 = a1 + 2, p2 = 1 - a2: Q20 -> Q20 */
+    fx_factor_t b0, p1, p2; /* Q19 sum -> Q26 (b0 g β); p1 = a1 + 2, p2 = 1 - a2: Q26 -> Q26 */
 } biquad_q_t;
 
 typedef struct {
@@ -48,11 +49,12 @@ typedef struct {
     float half_T, alpha, one_m_alpha;
 } accel_cond_f32_t;
 
-/* The trapezoid and the post high-pass as v <- v - γ v + β (l + l1): β = α T/2, γ = 1 - α. */
+/* The trapezoid and the post high-pass as v <- v - γ v + β (l + l1): β = α T/2, γ = 1 - α;
+ * fixed point folds the first β into the low-pass. */
 typedef struct {
     hp_delta_q_t hp;
     biquad_q_t lp;
-    fx_factor_t beta, gamma; /* β: Q20 -> Q24 (and Q24 -> Q28), γ: Q -> Q */
+    fx_factor_t beta, gamma; /* β: Q26 -> Q28 (the first β is in the low-pass), γ: Q -> Q */
 } accel_cond_q_t;
 
 /* One channel's memory; the low-pass's input history is the high-pass's output history. */
@@ -64,9 +66,9 @@ typedef struct {
 
 typedef struct {
     int32_t x1, x2;         /* Q16, the input as it came */
-    int32_t l1, l2;         /* Q20 */
+    int32_t l1, l2;         /* β times the low-passed acceleration, Q26 (m/s) */
     int32_t h1, h2, dh;     /* ACCEL_QH: the high-pass's output over g, its history, its step */
-    int32_t v;              /* Q24 */
+    int32_t v;              /* Q26 */
     int32_t x;              /* Q28 */
 } accel_chan_q_t;
 
@@ -81,7 +83,7 @@ void accel_cond_q_from_f32(accel_cond_q_t *q, const accel_cond_f32_t *c, uint8_t
 
 /* One sample a (m/s²) in; the displacement out (ch->l1 is the filtered acceleration). */
 float accel_cond_step_f32(const accel_cond_f32_t *c, accel_chan_f32_t *ch, float a);
-/* a Q16 in, displacement Q28 out (ch->l1: filtered acceleration Q20). */
+/* a Q16 in, displacement Q28 out (ch->l1: β times the filtered acceleration, Q26). */
 int32_t accel_cond_step_q(const accel_cond_q_t *c, accel_chan_q_t *ch, int32_t a,
                           uint8_t *status);
 
