@@ -14,6 +14,7 @@ size-checked slot (docs/extending.md, "A library you did not write"); float32 on
 from __future__ import annotations
 
 import re
+import textwrap
 from pathlib import Path
 from string import Template
 
@@ -112,6 +113,24 @@ extern const ROM estimator_t ${name}_estimator;
 #endif
 """
 
+# The float32 step both templates write: the low-pass, a NaN or infinite input held out.
+F32_STEP = """\
+float y = get_f32(in);
+if (!isfinite(y)) {
+    status |= STATUS_NOT_FINITE; /* contained: the estimate is held */
+} else if (!s->started) {
+    s->x = y;
+    s->started = 1u;
+} else {
+    s->x += s->k * (y - s->x);$note
+}
+put_f32(out, s->x);"""
+
+
+def _f32_step(indent: str, note: str = "") -> str:
+    return textwrap.indent(Template(F32_STEP).substitute(note=note), indent)
+
+
 SOURCE = """\
 #include "$name.h"
 
@@ -167,16 +186,7 @@ static uint8_t ${name}_step(void *state, const uint8_t *in, uint8_t in_len, uint
         }
         put_i32(out, s->x_q);
     } else {
-        float y = get_f32(in);
-        if (!isfinite(y)) {
-            status |= STATUS_NOT_FINITE; /* contained: the estimate is held */
-        } else if (!s->started) {
-            s->x = y;
-            s->started = 1u;
-        } else {
-            s->x += s->k * (y - s->x);
-        }
-        put_f32(out, s->x);
+${f32_step}
     }
     *out_len = ESTIMATOR_VALUE_SIZE;
     return status;
@@ -320,7 +330,9 @@ def new_estimator(name: str, title: str | None = None) -> list[Path]:
     files = {
         here.root / "specs" / f"{name}.py": Template(SPEC).substitute(words),
         here.c_sources[0] / f"{name}.h": Template(HEADER).substitute(words),
-        here.c_sources[0] / f"{name}.c": Template(SOURCE).substitute(words),
+        here.c_sources[0] / f"{name}.c": Template(SOURCE).substitute(
+            words, f32_step=_f32_step(8 * " ")
+        ),
         **{
             scenarios / name / f"sine-{mode.lower()}.toml": Template(SCENARIO).substitute(
                 words, mode=mode, tolerance=TOLERANCES[mode]
@@ -410,17 +422,8 @@ static uint8_t ${name}_step(void *state, const uint8_t *in, uint8_t in_len, uint
 {
     ${name}_state_t *s = (${name}_state_t *)state;
     uint8_t status = 0;
-    float y = get_f32(in);
     (void)in_len; /* the dispatcher checked it: n_inputs values */
-    if (!isfinite(y)) {
-        status |= STATUS_NOT_FINITE; /* contained: the estimate is held */
-    } else if (!s->started) {
-        s->x = y;
-        s->started = 1u;
-    } else {
-        s->x += s->k * (y - s->x); /* the skeleton's: VEHIL_SLOT_AS($type, s->lib)'s */
-    }
-    put_f32(out, s->x);
+${f32_step}
     *out_len = ESTIMATOR_VALUE_SIZE;
     return status;
 }
@@ -513,7 +516,12 @@ def new_wrapper(name: str, header: Path, title: str | None = None) -> list[Path]
     files = {
         here.root / "specs" / f"{name}.py": Template(SPEC).substitute(wrap),
         here.c_sources[0] / f"{name}.h": Template(WRAP_HEADER).substitute(wrap),
-        source: Template(WRAP_SOURCE).substitute(wrap),
+        source: Template(WRAP_SOURCE).substitute(
+            wrap,
+            f32_step=_f32_step(
+                4 * " ", f" /* the skeleton's: VEHIL_SLOT_AS({found.group(1)}, s->lib)'s */"
+            ),
+        ),
         scenarios / name / "sine-f32.toml": Template(SCENARIO).substitute(
             wrap, mode="F32", tolerance=TOLERANCES["F32"]
         ),
