@@ -367,3 +367,79 @@ def test_a_signed_factor_multiplies_rounded_ties_away_and_saturates(native_lib) 
                     got = mul(a, m, sh | neg, ctypes.byref(st))
                     assert got == max(-(2**31), min(2**31 - 1, want)), (a, m, sh, neg)
                     assert bool(st.value & 1) == (not -(2**31) <= want < 2**31), (a, m, sh, neg)
+
+
+def test_fx_umul_q24_rounds_half_up_below_2_31(native_lib) -> None:  # noqa: ANN001
+    """a b 2^-24 rounded half up for a < 2^31 and a Q24 factor b < 2^24 (the AVR's 32 x 24
+    product is held to these bits by tests/hil/test_fixmath_kernels_hil.py)."""
+    f = native_lib.fx_umul_q24_c
+    f.argtypes, f.restype = [ctypes.c_uint32, ctypes.c_uint32], ctypes.c_uint32
+    rng = np.random.default_rng(24)
+    ays = [0, 1, 2**23, 2**24 - 1, 2**31 - 1] + [int(a) for a in rng.integers(0, 2**31, 300)]
+    bs = [0, 1, 2**23, 2**24 - 1] + [int(b) for b in rng.integers(0, 2**24, 100)]
+    for a in ays:
+        for b in bs:
+            assert f(a, b) == (a * b + 2**23) >> 24, (a, b)
+    assert f(2**31 - 1, 2**24 - 1) < 2**31
+
+
+def test_fx_mul_q24_rs16_gives_the_bits_of_fx_mul(native_lib) -> None:  # noqa: ANN001
+    """a b 2^-16 for a Q24 factor 0 <= b < 2^24: fx_mul_rs's rounding (ties away from
+    zero) and saturation, flagged, for every int32 a."""
+    rs = native_lib.fx_mul_rs_c
+    rs.argtypes = [ctypes.c_int32, ctypes.c_int32, ctypes.c_uint8, ctypes.POINTER(ctypes.c_uint8)]
+    rs.restype = ctypes.c_int32
+    f = native_lib.fx_mul_q24_rs16_c
+    f.argtypes = [ctypes.c_int32, ctypes.c_uint32, ctypes.POINTER(ctypes.c_uint8)]
+    f.restype = ctypes.c_int32
+    rng = np.random.default_rng(25)
+    ays = [0, 1, -1, 2**15, -(2**15), 2**31 - 1, -(2**31), -(2**31) + 1]
+    ays += [int(a) for a in rng.integers(-(2**31), 2**31, 300)]
+    bs = [0, 1, 2**15, 2**16, 2**24 - 1] + [int(b) for b in rng.integers(0, 2**24, 100)]
+    saturated = 0
+    for a in ays:
+        for b in bs:
+            want, got = ctypes.c_uint8(0), ctypes.c_uint8(0)
+            assert f(a, b, ctypes.byref(got)) == rs(a, b, 16, ctypes.byref(want)), (a, b)
+            assert got.value == want.value, (a, b)
+            saturated += got.value
+    assert saturated > 0
+    exact = [(a * b + 2**15 - (a < 0)) >> 16 for a, b in [(-(2**31), 2**16), (-3, 2**15)]]
+    status = ctypes.c_uint8(0)
+    assert [f(-(2**31), 2**16, ctypes.byref(status)), f(-3, 2**15, ctypes.byref(status))] == exact
+    assert status.value == 0  # INT32_MIN itself is in range
+
+
+def test_fx_rescale_rounds_ties_away_from_zero(native_lib) -> None:  # noqa: ANN001
+    """Down by d bits: floor(a 2^-d + 1/2) for a >= 0, ceil(a 2^-d - 1/2) below, for every
+    d (the 16-bit path up to 15, 32-bit past it)."""
+    f = native_lib.fx_rescale_c
+    f.argtypes = [ctypes.c_int32, ctypes.c_uint8, ctypes.c_uint8, ctypes.POINTER(ctypes.c_uint8)]
+    f.restype = ctypes.c_int32
+    rng = np.random.default_rng(26)
+    ays = [0, 1, -1, 2**31 - 1, -(2**31)] + [int(a) for a in rng.integers(-(2**31), 2**31, 400)]
+    for d in range(1, 32):
+        half = 1 << (d - 1)
+        for a in ays + [half, -half, 3 * half, -3 * half, 2**31 - half, -(2**31) + half]:
+            a = max(min(a, 2**31 - 1), -(2**31))
+            want = (a + half) >> d if a >= 0 else -((-a + half) >> d)
+            status = ctypes.c_uint8(0)
+            assert f(a, 31, 31 - d, ctypes.byref(status)) == want, (a, d)
+            assert status.value == 0
+
+
+def test_fx_tanh_abs_q15_by_bytes_gives_the_tables_bits(native_lib) -> None:  # noqa: ANN001
+    """|x| in Q20..Q27 takes the cell and fraction by bytes: the same bits as the table's
+    interpolation at |x| >> (qx - 19)."""
+    pos = native_lib.fx_tanh_q15_pos
+    pos.argtypes, pos.restype = [ctypes.c_uint32], ctypes.c_uint16
+    f = native_lib.fx_tanh_abs_q15_c
+    f.argtypes, f.restype = [ctypes.c_uint32, ctypes.c_uint8], ctypes.c_uint16
+    rng = np.random.default_rng(27)
+    for qx in range(20, 28):
+        top = 64 << (qx - 4)
+        for mag in [0, 1, top - 1, top, top + 1, 2**32 - 1] + [
+            int(m) for m in rng.integers(0, top, 500)
+        ]:
+            want = 32746 if mag >= top else pos(mag >> (qx - 19))
+            assert f(mag, qx) == want, (mag, qx)

@@ -11,6 +11,7 @@
 enum { P_T, P_RW, P_WHEEL, P_GAMMA, P_XI, P_RG0, P_A, P_SIGN, P_READING, P_TREF, N_PARAMS };
 
 #define ONE_Q30 (INT32_C(1) << 30)
+#define ONE_Q24 (INT32_C(1) << 24)
 
 static const ROM param_range_t ranges[N_PARAMS] = {
     {1e-4f, 0.1f, 30},  {0.1f, 1.0f, 24}, {0.0f, 2.0f, 0}, {1.0f, 1.9f, 30}, {0.0f, 1.0f, 30},
@@ -147,7 +148,9 @@ static uint8_t step_q(manf_state_t *st, const uint8_t *in, uint8_t *out)
     manf_q_t *s = &st->u.q.s;
     int32_t w = wheel_choice_q(st->wheel, get_i32(in), get_i32(in + 4)); /* Q16 */
     uint8_t status = 0;
-    int32_t v_w = fx_mul(p->r_w, 24, w, 16, 24, &status); /* Q24 */
+    /* R ω in Q24, exact: r_w < 1 is a 24-bit factor, r_w = 1 a shift */
+    int32_t v_w = p->r_w < ONE_Q24 ? fx_mul_q24_rs16(w, (uint32_t)p->r_w, &status)
+                                   : fx_rescale(w, 16, 24, &status);
     if (!st->started) {
         st->started = 1;
         s->v = v_w;
@@ -158,22 +161,22 @@ static uint8_t step_q(manf_state_t *st, const uint8_t *in, uint8_t *out)
         /* R_g γ = R_g + R_g (γ - 1), R_g ξ = R_g - R_g (1 - ξ): R_g >= 0 always (R_g(0), γ
          * and ξ are), below 2^31 and R_g γ below 2^32, clamped to a next */
         uint32_t rg = (uint32_t)s->rg;
-        if (grow == 2u) {
-            rg += fx_umul_f(rg, p->gamma_m1);
+        if (grow == 2u && rg < (uint32_t)p->a) { /* at a, R_g γ clamps back to a */
+            rg += fx_umul_q24(rg, p->gamma_m1);
         } else if (grow == 1u) {
-            rg = p->xi_zero ? 0u : rg - fx_umul_f(rg, p->one_m_xi);
+            rg = p->xi_zero ? 0u : rg - fx_umul_q24(rg, p->one_m_xi);
         }
         if (rg > (uint32_t)p->a) {
             rg = (uint32_t)p->a;
         }
         s->rg = (int32_t)rg;
-        /* The step's magnitude R_g |tanh e| (T), Q24, then its sign: R_g >= 0 and the
-         * product is below a <= 100, so it cannot saturate, and one compare clamps it. */
+        /* The step's magnitude R_g T |tanh e| (reading A: R_g |tanh e|), Q24, then its sign:
+         * T |tanh e| in Q24 is below 1 and R_g below 2^31, so it cannot saturate, and one
+         * compare clamps it. */
         uint32_t mag_e = e < 0 ? (uint32_t)0 - (uint32_t)e : (uint32_t)e;
-        uint32_t step = fx_umul16_q15(rg, fx_tanh_abs_q15(mag_e, 24));
-        if (!st->reading) {
-            step = fx_umul_f(step, p->T);
-        }
+        uint16_t tanh_e = fx_tanh_abs_q15(mag_e, 24);
+        uint32_t step = st->reading ? fx_umul16_q15(rg, tanh_e)
+                                    : fx_umul_q24(rg, fx_umul16_q15(p->T, tanh_e));
         if (step > (uint32_t)p->limit) {
             step = (uint32_t)p->limit;
             status |= STATUS_CLAMPED;
@@ -228,19 +231,19 @@ static uint8_t manf_configure(void *state, uint8_t mode, const uint8_t *params)
     } else {
         manf_params_q_t *p = &st->u.q.p;
         int32_t gamma_q = param_q(params, P_GAMMA), xi_q = param_q(params, P_XI);
+        uint8_t sat = 0; /* cannot: γ <= 1.9, ξ <= 1, T <= 0.1 */
         if (param_q(params, P_TREF) > 0) { /* the rates per sample, to Q30 */
-            uint8_t sat = 0; /* cannot: gamma <= 1.9, xi <= 1 */
             gamma_q = fx_from_float(gamma, 30, &sat);
             xi_q = fx_from_float(xi, 30, &sat);
         }
-        p->T = fx_ufactor((uint32_t)param_q(params, P_T), 30);
-        p->gamma_m1 = fx_ufactor((uint32_t)(gamma_q - ONE_Q30), 30);
-        p->one_m_xi = fx_ufactor((uint32_t)(ONE_Q30 - xi_q), 30);
-        p->xi_zero = xi_q == 0;
+        p->T = (uint32_t)fx_rescale(param_q(params, P_T), 30, 24, &sat);
+        p->gamma_m1 = (uint32_t)fx_rescale(gamma_q - ONE_Q30, 30, 24, &sat);
+        p->one_m_xi = (uint32_t)fx_rescale(ONE_Q30 - xi_q, 30, 24, &sat);
+        p->xi_zero = p->one_m_xi >= (uint32_t)ONE_Q24; /* ξ below 2^-25 zeroes R_g as 0 does */
         p->r_w = param_q(params, P_RW);
         p->rg0 = param_q(params, P_RG0);
         p->a = param_q(params, P_A);
-        p->limit = (int32_t)fx_umul_f((uint32_t)p->a, p->T); /* eq. 43 */
+        p->limit = (int32_t)fx_umul_q24((uint32_t)p->a, p->T); /* eq. 43 */
     }
     manf_reset(st);
     return 0;

@@ -26,10 +26,10 @@ typedef struct {
 } manf_f32_t;
 
 typedef struct {
-    /* T, γ - 1 and 1 - ξ to 16 bits (fx_ufactor: relative error <= 2^-16), see
+    /* Q24, so that every product of the step shifts by whole bytes (fx_umul_q24), see
      * docs/estimators/manf.md */
-    fx_ufactor_t T, gamma_m1, one_m_xi;
-    uint8_t xi_zero; /* ξ = 0: a flip zeroes R_g */
+    uint32_t gamma_m1, one_m_xi, T; /* γ - 1, 1 - ξ, T */
+    uint8_t xi_zero;             /* ξ = 0: a flip zeroes R_g */
     int32_t r_w;    /* Q24 */
     int32_t rg0;    /* Q24 */
     int32_t a;      /* Q24 */

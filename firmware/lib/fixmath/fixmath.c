@@ -59,6 +59,22 @@ int32_t fx_mul16_c(int32_t a, int16_t b, uint8_t s, uint8_t *status)
 /* fx_umul16_q15 out of line, for the native tests. */
 uint32_t fx_umul16_q15_c(uint32_t a, uint16_t b) { return fx_umul16_q15(a, b); }
 
+/* fx_rescale and fx_tanh_abs_q15 out of line, for the native tests. */
+int32_t fx_rescale_c(int32_t a, uint8_t q_in, uint8_t q_out, uint8_t *status)
+{
+    return fx_rescale(a, q_in, q_out, status);
+}
+
+uint16_t fx_tanh_abs_q15_c(uint32_t mag, uint8_t qx) { return fx_tanh_abs_q15(mag, qx); }
+
+/* fx_umul_q24 and fx_mul_q24_rs16 out of line, for the native tests. */
+uint32_t fx_umul_q24_c(uint32_t a, uint32_t b) { return fx_umul_q24(a, b); }
+
+int32_t fx_mul_q24_rs16_c(int32_t a, uint32_t b, uint8_t *status)
+{
+    return fx_mul_q24_rs16(a, b, status);
+}
+
 int32_t fx_dot16x32_q15_c(const int16_t *l, const int32_t *y, uint8_t n, uint8_t stride,
                           uint8_t *status)
 {
@@ -351,15 +367,19 @@ static const ROM ROM_TABLE(uint16_t, 65) tanh_table = {{
     32670, 32681, 32691, 32700, 32708, 32715, 32721, 32727, 32732, 32736, 32740, 32743, 32746,
 }};
 
+uint16_t fx_tanh_q15_cell(uint8_t idx, uint16_t frac)
+{
+    uint16_t lo = rom_u16(ROM_AT(tanh_table, idx));
+    uint16_t d = (uint16_t)(rom_u16(ROM_AT(tanh_table, idx + 1u)) - lo);
+    /* (d · frac + 2^14) >> 15, as a doubling and a two-byte shift */
+    return (uint16_t)(lo + (uint16_t)(((fx_umul16x16(d, frac) + 0x4000u) << 1) >> 16));
+}
+
 uint16_t fx_tanh_q15_pos(uint32_t pos)
 {
     /* pos >> 15 and the low 15 bits, by whole bytes (the AVR loops on other shifts) */
     uint8_t idx = (uint8_t)((uint8_t)(pos >> 16) << 1 | (uint8_t)((uint16_t)pos >> 15));
-    uint16_t frac = (uint16_t)pos & 0x7fffu;
-    uint16_t lo = rom_u16(ROM_AT(tanh_table, idx));
-    uint16_t d = (uint16_t)(rom_u16(ROM_AT(tanh_table, idx + 1u)) - lo);
-    /* (d · frac + 2^14) >> 15, as a doubling and a two-byte shift */
-    return (uint16_t)(lo + (uint16_t)((((uint32_t)d * frac + 0x4000u) << 1) >> 16));
+    return fx_tanh_q15_cell(idx, (uint16_t)pos & 0x7fffu);
 }
 
 /* tanh(k / 16) in Q16, k = 0..64: tanh_f32's nodes. */

@@ -293,6 +293,101 @@ FX_INLINE uint32_t fx_umul16_q15(uint32_t a, uint16_t b)
 
 uint32_t fx_umul16_q15_c(uint32_t a, uint16_t b);
 
+/* 32 × 24 products for factors kept in Q24 (below 1, or up to 256 from Q16): a b for a < 2^32
+ * and b < 2^24 in twelve hardware products, where a run-time shift or a 32 × 32 product
+ * costs more than the products themselves. */
+#if defined(__AVR__)
+/* The product's bytes P1..P6 (P0, below every rounding bit, dropped) summed column by column
+ * into T1..T6: each product's low byte into its column, its high byte into the next, the
+ * carry into the one after (which holds only carries so far, so nothing is lost). */
+#define FX_MUL32X24_COLUMN(lo, hi, c)                                                          \
+    "add " lo ", r0\n\t"                                                                       \
+    "adc " hi ", r1\n\t"                                                                       \
+    "adc " c ", %[z]\n\t"
+#define FX_MUL32X24(T1, T2, T3, T4, T5, T6)                                                    \
+    "clr %[z]\n\t"                                                                             \
+    "clr " T2 "\n\t"                                                                           \
+    "clr " T3 "\n\t"                                                                           \
+    "clr " T4 "\n\t"                                                                           \
+    "clr " T5 "\n\t"                                                                           \
+    "clr " T6 "\n\t"                                                                           \
+    "mul %A[a], %A[b]\n\t"                                                                     \
+    "mov " T1 ", r1\n\t"                                                                       \
+    "mul %B[a], %A[b]\n\t" FX_MUL32X24_COLUMN(T1, T2, T3)                                      \
+    "mul %A[a], %B[b]\n\t" FX_MUL32X24_COLUMN(T1, T2, T3)                                      \
+    "mul %C[a], %A[b]\n\t" FX_MUL32X24_COLUMN(T2, T3, T4)                                      \
+    "mul %B[a], %B[b]\n\t" FX_MUL32X24_COLUMN(T2, T3, T4)                                      \
+    "mul %A[a], %C[b]\n\t" FX_MUL32X24_COLUMN(T2, T3, T4)                                      \
+    "mul %D[a], %A[b]\n\t" FX_MUL32X24_COLUMN(T3, T4, T5)                                      \
+    "mul %C[a], %B[b]\n\t" FX_MUL32X24_COLUMN(T3, T4, T5)                                      \
+    "mul %B[a], %C[b]\n\t" FX_MUL32X24_COLUMN(T3, T4, T5)                                      \
+    "mul %D[a], %B[b]\n\t" FX_MUL32X24_COLUMN(T4, T5, T6)                                      \
+    "mul %C[a], %C[b]\n\t" FX_MUL32X24_COLUMN(T4, T5, T6)                                      \
+    "mul %D[a], %C[b]\n\t"                                                                     \
+    "add " T5 ", r0\n\t"                                                                       \
+    "adc " T6 ", r1\n\t" /* P < 2^56: no carry out of P6 */                                    \
+    "clr r1\n\t"
+#endif
+
+/* a · b · 2^-24 rounded half up, for a < 2^31 and b < 2^24 (a factor below 1 in Q24): the
+ * result is below 2^31 and nothing saturates. */
+#if defined(__AVR__)
+FX_INLINE uint32_t fx_umul_q24(uint32_t a, uint32_t b)
+{
+    uint32_t r;
+    uint8_t t1, t2, z;
+    __asm__(FX_MUL32X24("%[t1]", "%[t2]", "%A[r]", "%B[r]", "%C[r]", "%D[r]")
+            "lsl %[t2]\n\t" /* P's bit 23 rounds */
+            "adc %A[r], %[z]\n\t"
+            "adc %B[r], %[z]\n\t"
+            "adc %C[r], %[z]\n\t"
+            "adc %D[r], %[z]"
+            : [r] "=&r"(r), [t1] "=&r"(t1), [t2] "=&r"(t2), [z] "=&r"(z)
+            : [a] "r"(a), [b] "r"(b));
+    return r;
+}
+#else
+FX_INLINE uint32_t fx_umul_q24(uint32_t a, uint32_t b)
+{
+    return (uint32_t)(((uint64_t)a * b + (UINT32_C(1) << 23)) >> 24);
+}
+#endif
+
+uint32_t fx_umul_q24_c(uint32_t a, uint32_t b);
+
+/* a · b · 2^-16 for 0 <= b < 2^24 (a factor below 256 in Q16, or below 1 in Q24 taking Q16
+ * to Q24): fx_mul_rs(a, b, 16)'s bits (ties away from zero, saturated and flagged), from a
+ * 32 × 24 product of |a| where the 32 × 32 kernel takes sixteen products. */
+#if defined(__AVR__)
+FX_INLINE int32_t fx_mul_q24_rs16(int32_t a, uint32_t b, uint8_t *status)
+{
+    uint8_t neg = a < 0;
+    uint32_t mag = neg ? (uint32_t)0 - (uint32_t)a : (uint32_t)a, r;
+    uint8_t t1, t6, z;
+    __asm__(FX_MUL32X24("%[t1]", "%A[r]", "%B[r]", "%C[r]", "%D[r]", "%[t6]")
+            "lsl %[t1]\n\t" /* P's bit 15 rounds */
+            "adc %A[r], %[z]\n\t"
+            "adc %B[r], %[z]\n\t"
+            "adc %C[r], %[z]\n\t"
+            "adc %D[r], %[z]\n\t"
+            "adc %[t6], %[z]"
+            : [r] "=&r"(r), [t1] "=&r"(t1), [t6] "=&r"(t6), [z] "=&r"(z)
+            : [a] "r"(mag), [b] "r"(b));
+    if (t6 != 0u || r > (uint32_t)FX_MAX + neg) {
+        *status |= STATUS_SATURATED;
+        return neg ? FX_MIN : FX_MAX;
+    }
+    return neg ? (int32_t)((uint32_t)0 - r) : (int32_t)r;
+}
+#else
+FX_INLINE int32_t fx_mul_q24_rs16(int32_t a, uint32_t b, uint8_t *status)
+{
+    return fx_mul_rs_c(a, (int32_t)b, 16, status);
+}
+#endif
+
+int32_t fx_mul_q24_rs16_c(int32_t a, uint32_t b, uint8_t *status);
+
 /* a · b · 2^-15 rounded half up for |b| < 2^15: fx_mul_shr(a, b, 15)'s bits (|a · b| < 2^46
  * cannot saturate), in two 16 × 16 hardware products and byte moves, not a 32 × 32. */
 FX_INLINE int32_t fx_mul16_h15(int32_t a, int16_t b)
@@ -473,9 +568,15 @@ FX_INLINE int32_t fx_rescale(int32_t a, uint8_t q_in, uint8_t q_out, uint8_t *st
         if (d > 31u) {
             return fx_sat(fx_round_shift(a, (int8_t)d), status);
         }
+        /* floor, then one up past the half (at the half too for a >= 0): floor((low + half
+         * - [a < 0]) 2^-d) for the low d bits, in 16 bits where they fit (two bytes of
+         * arithmetic on the AVR, not a 32-bit compare) */
+        if (d <= 15u) {
+            uint16_t low = (uint16_t)((uint16_t)a & ((1u << d) - 1u));
+            return (a >> d) + (int32_t)((uint16_t)(low + (1u << (d - 1u)) - (a < 0)) >> d);
+        }
         uint32_t half = (uint32_t)1 << (d - 1u);
         uint32_t low = (uint32_t)a & ((half << 1) - 1u);
-        /* floor, then one up past the half (at the half too for a >= 0) */
         return (a >> d) + (low >= half + (a < 0 ? 1u : 0u) ? 1 : 0);
     }
     uint8_t u = (uint8_t)(q_out - q_in);
@@ -489,9 +590,14 @@ FX_INLINE int32_t fx_rescale(int32_t a, uint8_t q_in, uint8_t q_out, uint8_t *st
     return (int32_t)((uint32_t)a << u);
 }
 
+int32_t fx_rescale_c(int32_t a, uint8_t q_in, uint8_t q_out, uint8_t *status);
+
 /* tanh of |x| in Q15 from |x| in Q19 (16ths of the table's grid with 15 fraction bits),
  * pos < 64 · 2^15: the table's interpolation, a 16 × 16 product and byte shifts. */
 uint16_t fx_tanh_q15_pos(uint32_t pos);
+
+/* The same in cell idx < 64 at frac < 2^15 of it (pos = idx 2^15 + frac). */
+uint16_t fx_tanh_q15_cell(uint8_t idx, uint16_t frac);
 
 /* tanh(x) for x in qx (4 <= qx <= 31) -> q_out (15 <= q_out <= 30): a 65-entry Q15 table
  * over [0, 4] with linear interpolation; |error| <= 7e-4 for every x (3.92e-4 inside
@@ -503,8 +609,17 @@ FX_INLINE uint16_t fx_tanh_abs_q15(uint32_t mag, uint8_t qx)
     if (mag >= (uint32_t)64 << (qx - 4u)) {
         return 32746; /* tanh(4), the table's last entry */
     }
+    uint8_t s = (uint8_t)(qx - 19u);
+    if (qx > 19u && s <= 8u) { /* mag >> s's cell and fraction by bytes and short shifts (the
+                                  AVR loops on a 32-bit shift that is not whole bytes) */
+        uint8_t idx = (uint8_t)((uint16_t)(mag >> 16) >> (s - 1u));
+        uint16_t frac = (uint16_t)((uint16_t)(mag >> 8) << (8u - s)) | (uint8_t)((uint8_t)mag >> s);
+        return fx_tanh_q15_cell(idx, frac & 0x7fffu);
+    }
     return fx_tanh_q15_pos(qx >= 19u ? mag >> (qx - 19u) : mag << (19u - qx));
 }
+
+uint16_t fx_tanh_abs_q15_c(uint32_t mag, uint8_t qx);
 
 FX_INLINE int32_t fx_tanh(int32_t x, uint8_t qx, uint8_t q_out)
 {
