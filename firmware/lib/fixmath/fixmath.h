@@ -327,6 +327,13 @@ uint32_t fx_umul16_q15_c(uint32_t a, uint16_t b);
     "add " T5 ", r0\n\t"                                                                       \
     "adc " T6 ", r1\n\t" /* P < 2^56: no carry out of P6 */                                    \
     "clr r1\n\t"
+/* R (four bytes) plus the top bit of byte B: the product rounded half up below R */
+#define FX_ROUND_INTO(B, R)                                                                    \
+    "lsl " B "\n\t"                                                                            \
+    "adc %A[" R "], %[z]\n\t"                                                                  \
+    "adc %B[" R "], %[z]\n\t"                                                                  \
+    "adc %C[" R "], %[z]\n\t"                                                                  \
+    "adc %D[" R "], %[z]\n\t"
 #endif
 
 /* a · b · 2^-24 rounded half up, for a < 2^31 and b < 2^24 (a factor below 1 in Q24): the
@@ -337,11 +344,7 @@ FX_INLINE uint32_t fx_umul_q24(uint32_t a, uint32_t b)
     uint32_t r;
     uint8_t t1, t2, z;
     __asm__(FX_MUL32X24("%[t1]", "%[t2]", "%A[r]", "%B[r]", "%C[r]", "%D[r]")
-            "lsl %[t2]\n\t" /* P's bit 23 rounds */
-            "adc %A[r], %[z]\n\t"
-            "adc %B[r], %[z]\n\t"
-            "adc %C[r], %[z]\n\t"
-            "adc %D[r], %[z]"
+                FX_ROUND_INTO("%[t2]", "r") /* P's bit 23 */
             : [r] "=&r"(r), [t1] "=&r"(t1), [t2] "=&r"(t2), [z] "=&r"(z)
             : [a] "r"(a), [b] "r"(b));
     return r;
@@ -365,11 +368,7 @@ FX_INLINE int32_t fx_mul_q24_rs16(int32_t a, uint32_t b, uint8_t *status)
     uint32_t mag = neg ? (uint32_t)0 - (uint32_t)a : (uint32_t)a, r;
     uint8_t t1, t6, z;
     __asm__(FX_MUL32X24("%[t1]", "%A[r]", "%B[r]", "%C[r]", "%D[r]", "%[t6]")
-            "lsl %[t1]\n\t" /* P's bit 15 rounds */
-            "adc %A[r], %[z]\n\t"
-            "adc %B[r], %[z]\n\t"
-            "adc %C[r], %[z]\n\t"
-            "adc %D[r], %[z]\n\t"
+                FX_ROUND_INTO("%[t1]", "r") /* P's bit 15, its carry into P6 */
             "adc %[t6], %[z]"
             : [r] "=&r"(r), [t1] "=&r"(t1), [t6] "=&r"(t6), [z] "=&r"(z)
             : [a] "r"(mag), [b] "r"(b));
