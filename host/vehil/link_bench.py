@@ -31,7 +31,7 @@ import numpy as np
 from rich.console import Console
 
 from vehil import profile, runner, scenario
-from vehil.boards import Board, BoardOptions, SimavrOptions, make_board, open_board
+from vehil.boards import BoardOptions, SimavrOptions, make_board, open_board
 from vehil.link import Link
 from vehil.ping import run_ping
 from vehil.protocol import frame as framing
@@ -109,7 +109,8 @@ def round_trips(count: int, latency_cycles: float) -> list[dict[str, Any]]:
     """Stop-and-wait 16-byte PINGs on simavr-realtime against wire time + board compute."""
     rows = []
     load = _load()
-    with _realtime_board().session() as link:
+    board = make_board("simavr-realtime", BoardOptions(timeout_s=2.0))
+    with board.session() as link:
         for baud in ROUND_TRIP_BAUDS:
             _set_baud(link, baud)
             run_ping(link, count=50, size=PING_SIZE, window=1)  # settle
@@ -155,12 +156,6 @@ def _raise_priority() -> str:
     return f"niceness {os.getpriority(os.PRIO_PROCESS, 0)}"
 
 
-def _realtime_board() -> Board:
-    """simavr-realtime on a loopback TCP socket (SimavrOptions.tcp): the pty's kernel
-    worker, which a loaded host keeps waiting, would set the round trips' tails."""
-    return make_board("simavr-realtime", BoardOptions(timeout_s=2.0), SimavrOptions(tcp=True))
-
-
 def _load() -> float:
     """The host's 1-minute load average (2 cores here): the context of a wall-clock figure."""
     return os.getloadavg()[0]
@@ -172,7 +167,7 @@ def realtime_loop() -> dict[str, Any]:
     sample was due), round trips and the step's cycles."""
     sc = scenario.load(LOOP_SCENARIO)
     load = _load()
-    r = runner.run(sc, _realtime_board(), realtime=True, console=Console(quiet=True))
+    r = runner.run(sc, "simavr-realtime", realtime=True, console=Console(quiet=True))
     rtt = r.rtt_s * 1e3 if r.done else np.zeros(1)
     return {
         "scenario": LOOP_SCENARIO,

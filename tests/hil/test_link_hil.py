@@ -118,13 +118,10 @@ def test_a_profile_sweep_point_measures_without_loss(link) -> None:
     assert link.info.fields["probe_cycles"] > 0
 
 
-def test_simavr_realtime_serves_its_uart_on_loopback_tcp_too(built) -> None:  # noqa: ANN001
-    """The wall-clock benchmarks' transport (SimavrOptions.tcp): the boot INFO kept, and
-    every PING echoed in order at the chip's pace."""
-    from vehil.boards import SimavrOptions, make_board
-
-    board = make_board("simavr-realtime", BoardOptions(timeout_s=3.0), SimavrOptions(tcp=True))
-    with board.session() as link:
+def test_simavr_realtime_serves_its_uart_on_loopback_tcp(built) -> None:  # noqa: ANN001
+    """simavr-realtime's transport (SimavrOptions.tcp): the boot INFO kept, and every PING
+    echoed in order at the chip's pace."""
+    with open_board("simavr-realtime", BoardOptions(timeout_s=3.0)) as link:
         assert type(link.port).__module__ == "vehil.transports.protocol_tcp"
         assert link.info.fields["baud"] == 1_000_000
         s = run_ping(link, count=50, size=16, window=1)  # raises on a lost or wrong reply

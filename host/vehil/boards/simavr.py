@@ -50,12 +50,15 @@ class SimavrBoard(ProcessBoard):
     name = "simavr"
     elf = FIRMWARE_ELF
     realtime = False  # a subclass that always runs in real time
+    tcp = False  # a subclass that always serves its UART on loopback TCP
 
     def __init__(self, options: BoardOptions | None = None, simavr: SimavrOptions | None = None):
         super().__init__(options)
         self.simavr = simavr or SimavrOptions()
         if self.realtime:
             self.simavr = dataclasses.replace(self.simavr, realtime=True)
+        if self.tcp:
+            self.simavr = dataclasses.replace(self.simavr, tcp=True)
 
     def bridge_args(self) -> list[str]:
         """What the bridge runs; checks that it is there."""
@@ -78,10 +81,12 @@ class SimavrBoard(ProcessBoard):
 
 class SimavrRealtimeBoard(SimavrBoard):
     """simavr held to the chip's real time, so the UART takes the wire time a Mega's
-    does: the board for latency and loop-rate figures (the default runs ahead)."""
+    does: the board for latency and loop-rate figures (the default runs ahead). On
+    loopback TCP, whose bytes a loaded host delays less than a pty's (SimavrOptions.tcp)."""
 
     name = "simavr-realtime"
     realtime = True
+    tcp = True
 
 
 class SimavrMegaBoard(SimavrRealtimeBoard):
@@ -90,6 +95,7 @@ class SimavrMegaBoard(SimavrRealtimeBoard):
     timer, or sooner past 96 bytes, as on a real Mega."""
 
     name = "simavr-mega"
+    tcp = False  # on the pty, whose opening resets the chip as a Mega's DTR does
 
     def port_url(self, url: str) -> str:
         return super().port_url(f"mega16u2://{url}")
