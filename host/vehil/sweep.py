@@ -24,6 +24,7 @@ from rich.table import Table
 from vehil import campaign, plants, record, runner
 from vehil.boards import Board
 from vehil.compare import Figures
+from vehil.errors import PlantLimit
 from vehil.paths import runs_dir
 from vehil.perturb import Perturbation
 from vehil.protocol.schema import SCHEMA
@@ -274,7 +275,14 @@ def run(
         quiet = Console(quiet=True)
         figures = []
         for i, job in enumerate(jobs):
-            result = runner.run(job.scenario, board, recording=job.recording, console=quiet)
+            try:
+                result = runner.run(job.scenario, board, recording=job.recording, console=quiet)
+            except PlantLimit as exc:
+                drawn = ", ".join(f"{k} = {v:.4g}" for k, v in draws[i].items()) or "nominal"
+                raise PlantLimit(
+                    f"drive {i} ({drawn}): {exc}; narrow the sweep's ranges to what the plant "
+                    "can model"
+                ) from None
             figures.append(result.figures)
             said(i, result.figures)
     else:

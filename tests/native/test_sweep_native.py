@@ -8,6 +8,7 @@ import json
 import pytest
 
 from vehil import cli, scenario, sweep
+from vehil.errors import PlantLimit
 
 VARY = {"i_w": {"lo": 1.0, "hi": 1.5}, "k_b": {"lo": 0.55, "hi": 0.6}}  # another car's wheels
 
@@ -95,3 +96,12 @@ def test_an_estimator_that_sees_a_band_is_scored_in_it_too(built, tmp_path) -> N
 def test_an_estimator_that_sees_the_whole_truth_is_not(uiiekf3) -> None:  # noqa: ANN001
     s = uiiekf3[False]
     assert s.beats_zero() == {} and all(d.in_band == {} for d in s.drives)
+
+
+def test_a_drive_the_plant_cannot_model_names_itself(built) -> None:  # noqa: ANN001
+    """ISO class H at 100 km/h throws the quarter car off the road: the sweep stops naming
+    the drive and its draw, not with NaN figures."""
+    sc = dataclasses.replace(scenario.load("mismatch-iso-c60-kfui"), duration=3.0)
+    found = sweep.perturbations(sc, {"iso_class": {"values": [8]}, "speed_kmh": {"values": [100]}})
+    with pytest.raises(PlantLimit, match=r"drive 1 \(iso_class = 8, speed_kmh = 100\): .*road"):
+        sweep.run(sc, found, 1, "native")
