@@ -400,12 +400,11 @@ static uint8_t step_q(acc_kf_state_t *st, const uint8_t *in, uint8_t *out)
         s->af = a_m;
         s->daf = 0;
     } else {
-        int32_t T = p->T;
-        int32_t w2 = st->corr1 ? s->w2_prev : 0;
-        /* v⁻ = v + T (u - a0): Q30 · Q24 -> Q20 */
-        int32_t v_pred =
-            fx_add(s->v, fx_mul(T, 30, fx_sub(s->u_prev, s->a0, &status), 24, 20, &status), &status);
-        int32_t b_pred = fx_add(s->a0, w2, &status);
+        int32_t w2 = 0;
+        if (st->corr1) { /* a_f serves correction 1 alone; eq. 6 with r̄ to 16 bits */
+            w2 = s->w2_prev;
+            s->w2_prev = fx_mul_f(lpf_q(p, s, a_m, &status), p->rbar, &status); /* the next */
+        }
         /* c = 1 - slip (eq. 8); c = 1, every step without the correction, multiplies
          * exactly, so those steps skip c's products and keep the same bits. */
         uint8_t unit_c = !(braking && st->corr2 && s->slip != 0);
@@ -414,14 +413,15 @@ static uint8_t step_q(acc_kf_state_t *st, const uint8_t *in, uint8_t *out)
             covariance_q(p, s, c, unit_c);
         }
         status |= s->p_status;
+        /* v⁻ = v + T (u - a0): Q30 · Q24 -> Q20 */
+        int32_t v_pred =
+            fx_add(s->v, fx_mul(p->T, 30, fx_sub(s->u_prev, s->a0, &status), 24, 20, &status), &status);
+        int32_t b_pred = fx_add(s->a0, w2, &status);
         int32_t c_v_pred = unit_c ? v_pred : fx_mul(c, 30, v_pred, 20, 20, &status);
         int32_t e = fx_sub(v_m, c_v_pred, &status); /* Q20 */
         s->v = fx_add(v_pred, fx_mul_f(e, s->kv, &status), &status);
         s->a0 = fx_add(b_pred, fx_mul_f(e, s->ka, &status), &status);
         status |= health_q(p, s, e);
-        if (st->corr1) { /* a_f serves correction 1 alone; eq. 6 with r̄ to 16 bits */
-            s->w2_prev = fx_mul_f(lpf_q(p, s, a_m, &status), p->rbar, &status);
-        }
         if (braking && s->v > p->v_guard) {
             fx_recip_t inv_v = fx_recip(s->v); /* s->v > v_guard > 0 */
             int32_t slip = /* Q20 / Q20 -> Q30 */
