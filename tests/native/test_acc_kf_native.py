@@ -35,6 +35,21 @@ def test_the_four_variants_run_on_the_board_as_on_the_host(run_scenario) -> None
         assert result.figures.outputs["v"].reference.max_abs < 1e-4
 
 
+@pytest.mark.parametrize(
+    "change",
+    [{"lpf_hz": 0.0}, {"lpf_hz": 30.0}, {"corr1": 0.0}, {"corr2": 0.0}, {"R": 0.004}],
+)
+def test_fixed_follows_the_reference_off_the_shipped_parameters(run_scenario, change) -> None:  # noqa: ANN001
+    """The low-pass off or at 30 Hz (its unit-DC-gain form), one correction off, a smaller R
+    (larger gains, kept as 16-bit factors): FIXED within 1e-4 of float64."""
+    sc = scenario.load("mixed-fixed")
+    changed = dataclasses.replace(sc, params=sc.params | change)
+    result = run_scenario(changed, board="native", duration=20.0)
+    result.assert_passed()
+    assert result.figures.outputs["v"].reference.max_abs < 1e-4
+    assert result.figures.outputs["a0"].reference.max_abs < 1e-4
+
+
 @pytest.mark.parametrize(("name", "limit"), [("mixed", 5e-5), ("mixed-fixed", 2e-4)])
 def test_at_1_ms_only_the_sample_time_changes_and_the_c_derives_the_same_step(
     run_scenario,  # noqa: ANN001
