@@ -55,8 +55,7 @@ void accel_cond_design_f32(accel_cond_f32_t *c, const uint8_t *params, uint8_t f
 
 void accel_cond_q_from_f32(accel_cond_q_t *q, const accel_cond_f32_t *c, uint8_t *status)
 {
-    q->hp = (hp_delta_q_t){fx_from_float(c->hp.c2, 30, status),
-                           fx_from_float(c->hp.c12, 30, status)};
+    q->hp = (hp_delta_q_t){fx_factor(c->hp.c2, 0, status), fx_factor(c->hp.c12, 0, status)};
     /* the poles as their distances from a1 = -2, a2 = 1 (a double pole at z = 1), which
      * keep 16 bits where the poles near 1 need them; b0 from the poles as kept, so that the
      * DC gain stays 1 */
@@ -110,9 +109,9 @@ int32_t accel_cond_step_q(const accel_cond_q_t *c, accel_chan_q_t *ch, int32_t a
 {
     const hp_delta_q_t *hp = &c->hp;
     int32_t d2 = fx_sub(fx_sub(a, ch->x1, status), fx_sub(ch->x1, ch->x2, status), status);
-    int32_t dh = fx_sub(ch->dh, fx_mul(hp->c2, 30, ch->dh, ACCEL_QH, ACCEL_QH, status), status);
+    int32_t dh = fx_sub(ch->dh, fx_mul_f(ch->dh, hp->c2, status), status);
     dh = fx_add(dh, fx_rescale(d2, 16, ACCEL_QH, status), status);
-    ch->dh = fx_sub(dh, fx_mul(hp->c12, 30, ch->h1, ACCEL_QH, ACCEL_QH, status), status);
+    ch->dh = fx_sub(dh, fx_mul_f(ch->h1, hp->c12, status), status);
     int32_t h = fx_add(ch->h1, ch->dh, status);
     int32_t l = biquad_q(&c->lp, h, ch->h1, ch->h2, ch->l1, ch->l2, status);
     int32_t v = fx_add(ch->v, fx_add(l, ch->l1, status), status);

@@ -40,7 +40,7 @@ typedef struct {
 } hp_delta_f32_t;
 
 typedef struct {
-    int32_t c2, c12; /* Q30: to 30 bits (docs/estimators/eso.md); g is the low-pass's */
+    fx_factor_t c2, c12; /* Q21 -> Q21; g is the low-pass's (docs/estimators/eso.md) */
 } hp_delta_q_t;
 
 typedef struct {
