@@ -142,6 +142,20 @@ static uint8_t step_f32(manf_state_t *st, const uint8_t *in, uint8_t *out)
     return status;
 }
 
+/* T tanh |e| in Q23 for |e| in Q24: the CONFIG-time table of T tanh on tanh's grid (fixmath's
+ * nodes, so the same interpolation error), one 16 × 16 product between two nodes. */
+static inline uint32_t t_tanh(const manf_params_q_t *p, uint32_t mag_e)
+{
+    if (mag_e >= UINT32_C(64) << 20) {
+        return p->t_tanh[64];
+    }
+    uint8_t k;
+    uint16_t frac = fx_grid16_cell(mag_e, 24, &k);
+    uint32_t lo = p->t_tanh[k];
+    uint16_t d = (uint16_t)(p->t_tanh[k + 1u] - lo); /* <= 0.1 tanh(1/16) 2^23 + 1 < 2^16 */
+    return lo + (((fx_umul16x16(d, frac) + 0x4000u) << 1) >> 16);
+}
+
 static uint8_t step_q(manf_state_t *st, const uint8_t *in, uint8_t *out)
 {
     const manf_params_q_t *p = &st->u.q.p;
@@ -174,9 +188,8 @@ static uint8_t step_q(manf_state_t *st, const uint8_t *in, uint8_t *out)
          * T |tanh e| in Q24 is below 1 and R_g below 2^31, so it cannot saturate, and one
          * compare clamps it. */
         uint32_t mag_e = e < 0 ? (uint32_t)0 - (uint32_t)e : (uint32_t)e;
-        uint16_t tanh_e = fx_tanh_abs_q15(mag_e, 24);
-        uint32_t step = st->reading ? fx_umul16_q15(rg, tanh_e)
-                                    : fx_umul_q24(rg, fx_umul16_q15(p->T, tanh_e));
+        uint32_t step = st->reading ? fx_umul16_q15(rg, fx_tanh_abs_q15(mag_e, 24))
+                                    : fx_umul_q24(rg, t_tanh(p, mag_e) << 1);
         if (step > (uint32_t)p->limit) {
             step = (uint32_t)p->limit;
             status |= STATUS_CLAMPED;
@@ -236,14 +249,18 @@ static uint8_t manf_configure(void *state, uint8_t mode, const uint8_t *params)
             gamma_q = fx_from_float(gamma, 30, &sat);
             xi_q = fx_from_float(xi, 30, &sat);
         }
-        p->T = (uint32_t)fx_rescale(param_q(params, P_T), 30, 24, &sat);
+        uint32_t T = (uint32_t)fx_rescale(param_q(params, P_T), 30, 24, &sat);
+        for (uint8_t k = 0; k <= 64u; k++) { /* tanh's nodes, Q15 << 8, times T: Q23 */
+            uint32_t node = (uint32_t)fx_tanh_abs_q15((uint32_t)k << 20, 24) << 8;
+            p->t_tanh[k] = fx_umul_q24(T, node);
+        }
         p->gamma_m1 = (uint32_t)fx_rescale(gamma_q - ONE_Q30, 30, 24, &sat);
         p->one_m_xi = (uint32_t)fx_rescale(ONE_Q30 - xi_q, 30, 24, &sat);
         p->xi_zero = p->one_m_xi >= (uint32_t)ONE_Q24; /* ξ below 2^-25 zeroes R_g as 0 does */
         p->r_w = param_q(params, P_RW);
         p->rg0 = param_q(params, P_RG0);
         p->a = param_q(params, P_A);
-        p->limit = (int32_t)fx_umul_q24((uint32_t)p->a, p->T); /* eq. 43 */
+        p->limit = (int32_t)fx_umul_q24((uint32_t)p->a, T); /* eq. 43 */
     }
     manf_reset(st);
     return 0;

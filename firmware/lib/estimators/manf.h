@@ -28,7 +28,8 @@ typedef struct {
 typedef struct {
     /* Q24, so that every product of the step shifts by whole bytes (fx_umul_q24), see
      * docs/estimators/manf.md */
-    uint32_t gamma_m1, one_m_xi, T; /* γ - 1, 1 - ξ, T */
+    uint32_t gamma_m1, one_m_xi; /* γ - 1, 1 - ξ */
+    uint32_t t_tanh[65];         /* T tanh(k / 16), k = 0..64, Q23: reading B's step */
     uint8_t xi_zero;             /* ξ = 0: a flip zeroes R_g */
     int32_t r_w;    /* Q24 */
     int32_t rg0;    /* Q24 */

@@ -598,6 +598,17 @@ uint16_t fx_tanh_q15_pos(uint32_t pos);
 /* The same in cell idx < 64 at frac < 2^15 of it (pos = idx 2^15 + frac). */
 uint16_t fx_tanh_q15_cell(uint8_t idx, uint16_t frac);
 
+/* The cell of a 1/16 grid that a magnitude in qx (19 < qx <= 27) falls in, *idx = mag 2^(4 -
+ * qx), and the fraction of it, mag 2^(19 - qx) mod 2^15 (Q15), by bytes and short shifts (the
+ * AVR loops on a 32-bit shift that is not whole bytes). */
+FX_INLINE uint16_t fx_grid16_cell(uint32_t mag, uint8_t qx, uint8_t *idx)
+{
+    uint8_t s = (uint8_t)(qx - 19u);
+    *idx = (uint8_t)((uint16_t)(mag >> 16) >> (s - 1u));
+    return (uint16_t)((uint16_t)((uint16_t)(mag >> 8) << (8u - s)) | (uint8_t)((uint8_t)mag >> s)) &
+           0x7fffu;
+}
+
 /* tanh(x) for x in qx (4 <= qx <= 31) -> q_out (15 <= q_out <= 30): a 65-entry Q15 table
  * over [0, 4] with linear interpolation; |error| <= 7e-4 for every x (3.92e-4 inside
  * [-4, 4], tanh(4)'s distance to 1 beyond). With qx and q_out constants, the conversions
@@ -608,12 +619,10 @@ FX_INLINE uint16_t fx_tanh_abs_q15(uint32_t mag, uint8_t qx)
     if (mag >= (uint32_t)64 << (qx - 4u)) {
         return 32746; /* tanh(4), the table's last entry */
     }
-    uint8_t s = (uint8_t)(qx - 19u);
-    if (qx > 19u && s <= 8u) { /* mag >> s's cell and fraction by bytes and short shifts (the
-                                  AVR loops on a 32-bit shift that is not whole bytes) */
-        uint8_t idx = (uint8_t)((uint16_t)(mag >> 16) >> (s - 1u));
-        uint16_t frac = (uint16_t)((uint16_t)(mag >> 8) << (8u - s)) | (uint8_t)((uint8_t)mag >> s);
-        return fx_tanh_q15_cell(idx, frac & 0x7fffu);
+    if (qx > 19u && qx <= 27u) {
+        uint8_t idx;
+        uint16_t frac = fx_grid16_cell(mag, qx, &idx);
+        return fx_tanh_q15_cell(idx, frac);
     }
     return fx_tanh_q15_pos(qx >= 19u ? mag >> (qx - 19u) : mag << (19u - qx));
 }
