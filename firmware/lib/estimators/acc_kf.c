@@ -366,12 +366,10 @@ static uint8_t health_q(const acc_kf_params_q_t *p, acc_kf_q_t *s, int32_t e)
         e16 = INT16_MAX;
     }
     uint32_t e2g = fx_umul16_q15(fx_umul16x16(e16, e16), s->g16); /* < 2^30 */
-    /* the average's step alpha (e2g - avg), on its magnitude */
-    if (e2g >= s->nis_r) {
-        s->nis_r += fx_umul_f(e2g - s->nis_r, p->alpha);
-    } else {
-        s->nis_r -= fx_umul_f(s->nis_r - e2g, p->alpha);
-    }
+    /* the average's step alpha (e2g - avg), on its magnitude (a 32 x 24 product inline) */
+    uint8_t up = e2g >= s->nis_r;
+    uint32_t step = fx_umul_q24(up ? e2g - s->nis_r : s->nis_r - e2g, p->alpha);
+    s->nis_r = up ? s->nis_r + step : s->nis_r - step;
     int32_t out_v = s->v < -p->v_guard ? fx_add(s->v, p->v_guard, &hs)
                                        : (s->v > p->v_max ? fx_sub(s->v, p->v_max, &hs) : 0);
     uint8_t bad = s->nis_r > p->nis_lim;
@@ -538,8 +536,8 @@ static uint8_t acc_kf_configure(void *state, uint8_t mode, const uint8_t *params
         }
         p->e_shift = (uint8_t)(20u - q_e);
         p->nis_lim = fx_from_float(lim, (uint8_t)(2u * q_e), &sat);
-        float alpha = T / param_value(params, P_NISWIN, mode, 24); /* <= 1 */
-        p->alpha = fx_ufactor((uint32_t)fx_from_float(alpha < 1.0f ? alpha : 0.99999f, 30, &sat), 30);
+        float alpha = T / param_value(params, P_NISWIN, mode, 24); /* in [1e-6, 1] */
+        p->alpha = (uint32_t)fx_from_float(alpha < 1.0f ? alpha : 0.99999994f, 24, &sat);
         p->v_max = fx_rescale(param_q(params, P_VMAX), 16, 20, &sat);
         p->lpf_on = d.lpf_on;
         p->b4 = fx_factor(4.0f * d.b0, 0, &sat);

@@ -58,7 +58,7 @@ typedef struct {
     fx_factor_t b4;       /* 4 b0 (b = b0 (1, 2, 1)) to 16 bits */
     fx_ufactor_t a2;      /* -c2 in (0, 1) to 16 bits */
     uint8_t lpf_on;       /* lpf_hz > 0 (else a_f = a_m) */
-    fx_ufactor_t alpha;   /* T / nis_window to 16 bits */
+    uint32_t alpha;       /* Q24: T / nis_window (>= 1e-6: within 3 % at that corner) */
     uint8_t e_shift;      /* 20 - q_e: e from Q20 to the health check's Q q_e */
     uint32_t nis_lim;     /* Q(2 q_e): R nis_max (m/s)² */
     int32_t v_max;        /* Q20 */
