@@ -400,7 +400,7 @@ static const ROM ROM_TABLE(uint32_t, 21) tanh_tail_q32 = {{
 /* tanh's slope on the Q16 grid, per cell of 1/16: (1 - y²) / 16, in Q16. */
 static int16_t tanh_cell_slope(uint16_t y)
 {
-    return (int16_t)((65536u - (uint32_t)((uint32_t)y * y >> 16)) >> 4);
+    return (int16_t)((65536u - (fx_umul16x16(y, y) >> 16)) >> 4);
 }
 
 /* A Q31 value in [0, 2^31] as a float: the conversion is exact to float32's rounding, and
@@ -445,11 +445,10 @@ float tanh_f32(float x)
         int16_t m0 = tanh_cell_slope(y0), m1 = tanh_cell_slope(y1);
         int16_t d = (int16_t)(y1 - y0);
         int16_t c2 = (int16_t)(3 * d - 2 * m0 - m1), c3 = (int16_t)(m0 + m1 - 2 * d);
-        uint16_t t2 = (uint16_t)(((uint32_t)t * t << 1) >> 16); /* >> 15, by bytes */
-        uint16_t t3 = (uint16_t)(((uint32_t)t2 * t << 1) >> 16);
-        /* Empty barrier: knowing their ranges, GCC would widen these to 32 × 32 multiplies. */
-        __asm__("" : "+r"(m0), "+r"(c2), "+r"(c3), "+r"(t), "+r"(t2), "+r"(t3));
-        int32_t r = (int32_t)m0 * t + (int32_t)c2 * t2 + (int32_t)c3 * t3; /* Q31 */
+        /* the 16 × 16 products inline (fixmath.h), where avr-gcc called its library's */
+        uint16_t t2 = (uint16_t)((fx_umul16x16(t, t) << 1) >> 16); /* >> 15, by bytes */
+        uint16_t t3 = (uint16_t)((fx_umul16x16(t2, t) << 1) >> 16);
+        int32_t r = fx_smul16x16(m0, t) + fx_smul16x16(c2, t2) + fx_smul16x16(c3, t3); /* Q31 */
         y31 = ((uint32_t)y0 << 16 >> 1) + (uint32_t)r;
     } else if (e <= 130u) { /* 4 <= |x| < 16: the tail table, linear in quarters */
         uint32_t q = (m >> (140u - e)) - ((uint32_t)4 << 10); /* (|x| - 4) 2^10 */
