@@ -22,7 +22,7 @@ SCENARIOS = DATA_ROOT / "scenarios" / "eso"
     [
         ("s1-sine-eso", 1e-5),  # float32
         ("s1-sine-eso-fixed", 6e-5),  # fixed point: the high-pass in Q21, for hard bumps
-        ("hard-bumps-eso-fixed", 1e-4),  # a_us to -444 m/s²: no saturation
+        ("hard-bumps-eso-fixed", 1e-4),  # a_us to -391 m/s²: no saturation
         ("s3-random-eso-b", 5e-5),
         ("s4-random-kfui", 5e-5),
     ],
