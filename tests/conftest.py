@@ -9,6 +9,7 @@ or loopback port). The build is shared, so workers take it in turn under a file 
 from __future__ import annotations
 
 import fcntl
+import json
 import os
 from pathlib import Path
 
@@ -22,6 +23,43 @@ from vehil.paths import BUILD_DIR
 os.environ.pop("COLUMNS", None)
 
 
+# Modules whose tests share a costly module fixture: under pytest-xdist each runs whole on
+# one worker, which sets the fixture up once (xdist's own xdist_group mark cannot do it under
+# pytest 9: it renames the tests through a node attribute pytest no longer reads).
+ONE_WORKER_MODULES = {
+    "tests/hil/test_labgrid_hil.py",  # the lab: a coordinator, an exporter, two boards
+    "tests/hil/test_vendored_hil.py",  # the fixture project's build
+    "tests/hil/test_flash_hil.py",  # the board flashed once
+    "tests/native/test_campaign_native.py",  # a campaign on a local Dask cluster
+    "tests/native/test_sweep_native.py",  # a sweep of six runs
+    "tests/native/test_cli_native.py",  # a 10,000-sample run
+}
+
+
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    """Tests marked `long` run first, each kind keeping its order (the sort is stable): the
+    workers take tests one at a time (pytest_xdist_make_scheduler), so the longest start at
+    once and a run ends on short tests on every worker, not on one long test while the
+    other workers wait."""
+    items.sort(key=lambda item: item.get_closest_marker("long") is None)
+
+
+@pytest.hookimpl(optionalhook=True)  # a hook of pytest-xdist's, absent under -p no:xdist
+def pytest_xdist_make_scheduler(config: pytest.Config, log: object) -> object:
+    """Each worker takes the next test when it is done with its own (a module of
+    ONE_WORKER_MODULES: the next whole module), in the order above."""
+    from xdist.scheduler import LoadScopeScheduling
+
+    config.option.loadscopereorder = False  # the order is the collection's: long ones first
+
+    class OneAtATime(LoadScopeScheduling):
+        def _split_scope(self, nodeid: str) -> str:
+            module = nodeid.split("::", 1)[0]
+            return module if module in ONE_WORKER_MODULES else nodeid
+
+    return OneAtATime(config, log)
+
+
 @pytest.fixture(scope="session", autouse=True)
 def _runs_in_a_temporary_folder(tmp_path_factory: pytest.TempPathFactory) -> None:
     """Runs that name no folder go to $VEHIL_RUNS: the checkout gets no runs/ from tests."""
@@ -29,14 +67,27 @@ def _runs_in_a_temporary_folder(tmp_path_factory: pytest.TempPathFactory) -> Non
 
 
 @pytest.fixture(scope="session")
-def built() -> dict:
-    """Builds the firmware, the simavr bridge and the native library (incrementally), one
-    worker at a time: two builds writing the same objects would corrupt them."""
+def built() -> dict[str, Path]:
+    """Builds the firmware, the simavr bridge and the native library (incrementally), once
+    per test run: under pytest-xdist the first worker builds, under a file lock (two builds
+    writing the same objects would corrupt them), and the others take what it built. A
+    second build meanwhile would cost each worker a build's start-up for nothing, and any
+    image it relinked would be rewritten under the boards of the workers already running."""
     lock = BUILD_DIR / ".build.lock"
     lock.parent.mkdir(exist_ok=True)
+    run = os.environ.get("PYTEST_XDIST_TESTRUNUID")  # the same in every worker of one run
+    done = BUILD_DIR / ".built-in-test-run.json"
     with lock.open("w") as f:
         fcntl.flock(f, fcntl.LOCK_EX)
-        return build()
+        if run and done.exists():
+            before = json.loads(done.read_text())
+            if before["run"] == run:
+                return {part: Path(path) for part, path in before["products"].items()}
+        products = build()
+        if run:
+            saved = {part: str(path) for part, path in products.items()}
+            done.write_text(json.dumps({"run": run, "products": saved}))
+        return products
 
 
 @pytest.fixture(scope="session")

@@ -86,6 +86,7 @@ def test_flash_through_the_bootloader_then_the_flashed_firmware_runs_a_scenario(
     assert run.figures.passed
 
 
+@pytest.mark.long
 def test_a_corrupted_image_fails_verification_naming_address_expected_and_got(
     image: Path, tmp_path: Path
 ) -> None:

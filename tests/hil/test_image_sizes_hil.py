@@ -1,10 +1,13 @@
 """What an estimator costs in flash and RAM: the image built with and without it."""
 
+import pytest
+
 from vehil import profile
 from vehil.build.budget import budget
 from vehil.build.platformio import build_image
 
 
+@pytest.mark.long
 def test_an_estimator_s_footprint_is_the_difference_of_two_real_images(built) -> None:  # noqa: ANN001
     manf = profile.footprint("manf")
     alone = budget(build_image("manf"))  # passthrough and MANF only

@@ -27,6 +27,7 @@ from vehil.paths import MEGA_BOOTLOADER_HEX
 LABGRID_BIN = Path(sys.executable).with_name("labgrid-coordinator")  # beside our Python
 pytestmark = [
     pytest.mark.hil,
+    pytest.mark.long,
     pytest.mark.skipif(
         not (shutil.which("ser2net") or Path("/usr/sbin/ser2net").exists()),
         reason="needs Debian's ser2net (scripts/setup installs it)",

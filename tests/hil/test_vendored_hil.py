@@ -16,7 +16,7 @@ import pytest
 
 from vehil.paths import BUILD_DIR
 
-pytestmark = pytest.mark.hil
+pytestmark = [pytest.mark.hil, pytest.mark.long]
 
 PROJECT = Path(__file__).resolve().parents[1] / "fixtures" / "vendoring"
 CACHE = BUILD_DIR / "vendoring-fixture"  # kept between runs: the builds are incremental

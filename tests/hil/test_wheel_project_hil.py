@@ -21,7 +21,7 @@ import pytest
 
 from vehil.paths import DATA_ROOT
 
-pytestmark = pytest.mark.hil
+pytestmark = [pytest.mark.hil, pytest.mark.long]
 
 # What the wheel is built from: the tree less its build products, caches and hidden
 # folders (.git, .venv, .pio, .hypothesis..., which other tests may be writing).
@@ -53,10 +53,13 @@ def test_a_new_estimator_from_the_wheel_builds_alone_and_passes_on_every_board(
     _run([*pip_wheel, str(source)], tmp_path, env)
     (wheel,) = wheels.glob("vehil-*.whl")
 
+    # The venv has no pip of its own (seeding one takes longer than the rest of the
+    # install): ours installs the wheel into it.
     venv = tmp_path / "venv"
-    _run([sys.executable, "-m", "venv", str(venv)], tmp_path, env)
+    _run([sys.executable, "-m", "venv", "--without-pip", str(venv)], tmp_path, env)
     python = venv / "bin" / "python"
-    _run([str(python), "-m", "pip", "install", "-q", "--no-deps", str(wheel)], tmp_path, env)
+    pip_install = [sys.executable, "-m", "pip", "--python", str(python), "install", "-q"]
+    _run([*pip_install, "--no-deps", str(wheel)], tmp_path, env)
     site = Path(
         _run(
             [str(python), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"],

@@ -72,6 +72,7 @@ def test_tables_keep_their_full_width_off_a_terminal(built) -> None:  # noqa: AN
         ["reproduce", "manf"],  # a paper's tables, kept as rows
     ],
 )
+@pytest.mark.long  # `reproduce manf` runs the paper's drives
 def test_every_command_that_prints_a_table_gives_json(recorded, command, capsys) -> None:  # noqa: ANN001
     command = [str(recorded) if c == "RUN" else c for c in command]
     cli.main([*command, "--json"])

@@ -8,6 +8,7 @@ import dataclasses
 import tracemalloc
 from pathlib import Path
 
+import pytest
 from rich.console import Console
 
 from vehil import runner, scenario
@@ -26,6 +27,7 @@ def _peak(samples: int, folder: Path) -> int:
     return peak
 
 
+@pytest.mark.long
 def test_ten_times_the_samples_takes_no_more_memory(tmp_path: Path) -> None:
     _peak(1_000, tmp_path / "warm-up")  # what the first run imports is not the run's
     short = _peak(20_000, tmp_path / "short")
