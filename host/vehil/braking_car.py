@@ -3,7 +3,8 @@
 Table 2's car (the Pride) is the default of every parameter, so a scenario runs
 another car by naming its values, in the plant (the truth) and in the estimator
 (its model) separately. W = m g (Table 2's 8330 N is 850 kg × 9.8). Burckhardt's
-surfaces (note §1.5) are literature values: the paper gives none.
+surface coefficients c1-c3 are his published values (dry asphalt by default): the
+paper gives none.
 """
 
 from __future__ import annotations

@@ -70,7 +70,7 @@ def test_a_recorded_profile_is_read_from_csv(tmp_path) -> None:  # noqa: ANN001
 def test_forward_euler_at_100_hz_is_unstable_for_the_wheel_hop_mode() -> None:
     lam = np.linalg.eigvals(NOMINAL.jacobian([0, 0, 0, 0]))
     growth = np.abs(1 + 0.01 * lam)
-    assert growth.max() == pytest.approx(1.079, abs=2e-3)  # note §1.2
+    assert growth.max() == pytest.approx(1.079, abs=2e-3)  # docs/estimators/kfui.md
     assert np.abs(lam).max() / (2 * np.pi) == pytest.approx(9.25, abs=0.01)
 
 

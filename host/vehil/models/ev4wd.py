@@ -3,20 +3,21 @@
 Every vehicle and tire constant is a parameter (CAR_PARAMS, a `Car`), in the filters'
 CONFIG and, separately, in the truth plant (plants/ev4wd.py), so a scenario gives each
 its car: the same one as the paper assumes ("vehicle parameters known"), or another to
-measure the mismatch. The defaults are the note's §5.2 suggestions (the paper gives
-none: note §0.2). Wheels 1 FL, 2 FR, 3 RL, 4 RR (note §1, REC); ISO axes, y left, yaw
-positive counter-clockwise.
+measure the mismatch. The paper gives no vehicle or tire numbers (its truth was
+CarSim's car): the defaults are ours, a compact passenger EV (docs/estimators/ev.md).
+Wheels 1 FL, 2 FR, 3 RL, 4 RR (eq. (22) steers 1 and 2; left before right is our
+reading); ISO axes, y left, yaw positive counter-clockwise.
 
-The model (note §2.9, §2.10), vectorised over any leading batch axes so the UPF runs
-N × 43 sigma points in one call:
+The model (the paper's Section 3, eqs. (21)-(30)), vectorised over any leading batch
+axes so the UPF runs N × 43 sigma points in one call:
 - x = [v_x, v_y, γ, F̃_1y..F̃_4y]; u = (δ, F_1x..F_4x) and the loads F_z,i;
 - ẋ from eqs. (1)-(7) and the relaxation (20) with σ_α = k_α0 / k_y0, forward Euler
-  at the filter's sample time (note §3 step 1, ASSUME);
+  at the filter's sample time (the paper does not say how it discretises (26));
 - y = h(x, u) = [a_x, a_y, γ, ω_1..ω_4] from (5) and (29) with κ̂_i = F_ix / k_κ0 (28).
 The inputs the filters get are the sensors (a_x, a_y, γ, ω_i, δ, motor torques T_i);
 `Preprocess` turns them into u: F_ix = (T_i - I_w ω̇_i)/R (21) with ω̇ from a filtered
-difference of the measured wheel speed, and the loads from the measured a_x, a_y
-(note §5.2's quasi-static transfer).
+difference of the measured wheel speed, and the loads from the measured a_x, a_y by a
+quasi-static transfer (`loads`: the paper does not say how it gets F_z).
 """
 
 from __future__ import annotations
@@ -31,7 +32,7 @@ import numpy as np
 from vehil.spec import Param, Signal
 
 # The car: every vehicle and tire constant of the model, a parameter of the filters (their
-# CONFIG) and, separately, of the truth plant. Defaults: note §5.2's [ASSUME] values.
+# CONFIG) and, separately, of the truth plant. Defaults: ours, the paper gives none.
 CAR_PARAMS = (
     Param("m", "kg", default=1400.0, lo=200.0, hi=5000.0, doc="vehicle mass"),
     Param("i_z", "kg*m^2", default=1900.0, lo=50.0, hi=20_000.0, doc="yaw inertia"),
@@ -109,12 +110,12 @@ class Car:
 
     @cached_property
     def lx(self) -> np.ndarray:
-        """Wheel centres' l_i (note §1)."""
+        """Wheel centres' l_i: +l_f front, -l_r rear."""
         return np.array([self.l_f, self.l_f, -self.l_r, -self.l_r])
 
     @cached_property
     def byw(self) -> np.ndarray:
-        """Wheel centres' b_i (note §1), left positive."""
+        """Wheel centres' b_i, ±track/2, left positive."""
         return np.array([self.track / 2, -self.track / 2, self.track / 2, -self.track / 2])
 
 
@@ -139,12 +140,12 @@ OUTPUTS = (
     Signal("beta", "deg", doc="sideslip angle atan(v_y / v_x)"),
 )
 
-# Sensor noise of the plant (note §5.2) sets the nominal fixed R.
+# The plant's sensor noise (plants/ev4wd.py; the paper gives none) sets the nominal fixed R.
 SD_ACC, SD_GYRO, SD_W = 0.1, math.radians(0.5), 0.2
 
 TUNING = (
     Param("T", "s", default=0.01, lo=1e-3, hi=0.05, doc="filter sample time"),
-    Param("mu", "1", default=0.85, lo=0.05, hi=1.2, doc="road friction (known, §2.7)"),
+    Param("mu", "1", default=0.85, lo=0.05, hi=1.2, doc="road friction (known, D = μF_z)"),
     Param("vx0", "m/s", default=22.2, lo=0.5, hi=60.0, doc="initial v_x"),
     Param("p0_v", "(m/s)^2", default=1.0, lo=1e-6, hi=100.0, doc="P0 of v_x"),
     Param("p0_lat", "(m/s)^2", default=0.01, lo=1e-8, hi=10.0, doc="P0 of v_y; γ gets 1 % of it"),
@@ -157,7 +158,7 @@ TUNING = (
     Param("r_w", "(rad/s)^2", default=SD_W**2, lo=1e-8, hi=100.0, doc="fixed R: each ω_i"),
     Param("adaptive", "1", default=1.0, lo=0.0, hi=1.0, doc="1: R from (66)-(69), 0: fixed"),
     # (66)-(69): c_j scale the fixed R (so tuning R keeps the rules' shape), d_j are
-    # 1 / characteristic magnitude (note §5.2's suggestion).
+    # 1 / characteristic magnitude (the paper gives no c_j, d_j).
     Param("c_ax", "1", default=3.0, lo=0.0, hi=1e3, doc="c_ax1 = c_ax2 = c_ax3, × r_ax / 3"),
     Param("d_ax1", "s^2/m", default=2.0, lo=0.0, hi=1e3, doc="1/(0.5 m/s²)"),
     Param("d_ax2", "1/N", default=5e-4, lo=0.0, hi=1.0, doc="1/(2 kN) of Σ|F_x|"),
@@ -184,7 +185,9 @@ FORCE_PARAMS = (
 
 
 def loads(ax: float | np.ndarray, ay: float | np.ndarray, car: Car) -> np.ndarray:
-    """F_z,i (..., 4) from the CG accelerations: static + quasi-static transfer (note §5.2)."""
+    """F_z,i (..., 4) from the CG accelerations: static + quasi-static transfer.
+
+    Not in the paper, which does not say how it gets the loads."""
     ax, ay = np.asarray(ax), np.asarray(ay)
     m, wb, h = car.m, car.wheelbase, car.h_cg
     front = m * car.g * car.l_r / (2 * wb) - m * ax * h / (2 * wb)
@@ -224,7 +227,7 @@ class Inputs:
 
 
 class Preprocess:
-    """Sensors -> u (note §8.1 item 2): F_ix = (T_i - I_w ω̇_i)/R with ω̇ the measured
+    """Sensors -> u: F_ix = (T_i - I_w ω̇_i)/R with ω̇ the measured
     wheel speed's difference through a first-order low-pass (the car's τ_ω̇), and F_z
     from the measured accelerations."""
 
@@ -333,7 +336,7 @@ def step3(x: np.ndarray, u: Inputs, car: Car, T: float, fy: np.ndarray) -> np.nd
 
 def adaptive_r(u: Inputs, kappa: np.ndarray, p: Mapping[str, float]) -> np.ndarray:
     """diag R (7) by (66)-(69) from the measurements, δ, F_x and κ̂ at the estimate, each
-    within [r/r_clip, r r_clip] of the fixed value (note §4 ASSUME: (69) is unbounded)."""
+    within [r/r_clip, r r_clip] of the fixed value (our bound: (69) grows without one)."""
     fixed = fixed_r(p)
     if p["adaptive"] < 0.5:
         return fixed
@@ -368,7 +371,7 @@ def q_diag(p: Mapping[str, float], n: int = N_X) -> np.ndarray:
 
 
 def x0(p: Mapping[str, float], n: int = N_X) -> tuple[np.ndarray, np.ndarray]:
-    """Prior mean and covariance of n states (7, or the reduced EKF's 3) (note §5.2)."""
+    """Prior mean and covariance of n states (7, or the reduced EKF's 3); the paper gives none."""
     x = np.zeros(n)
     x[0] = p["vx0"]
     forces = [p["p0_f"]] * 4 if n == N_X else []

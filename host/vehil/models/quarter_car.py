@@ -1,7 +1,8 @@
-"""The nonlinear quarter car of seed 003 (note §1.1), shared by its plant, observers and controller.
+"""The nonlinear quarter car of seed 003 (eqs. 1-3), shared by its plant, observers and controller.
 
 States x = [x_s, ẋ_s, x_us, ẋ_us] from static equilibrium; Δx = x_s - x_us (extension
-positive). u follows eqs. (4)-(5): +u/m_s on the body, -u/m_us on the wheel. The damper is
+positive). u follows eqs. (4)-(5): +u/m_s on the body, -u/m_us on the wheel (eq. (1) prints the
+opposite sign; docs/estimators/kfui.md). The damper is
 the literal square c1 Δẋ + c2 Δẋ² by default (sign-preserving c2 Δẋ|Δẋ| behind a flag).
 The truth may add strut Coulomb friction (smoothed by tanh) and tire lift-off; the
 observers' nominal model has neither.
@@ -99,7 +100,7 @@ class QuarterCar:
         return [x[1], a_s, x[3], a_us]
 
     def road_from(self, x: np.ndarray | list[float], a_us: float, u: float) -> float:
-        """x_r that makes m_us ẍ_us = f_s + f_d - k_us (x_us - x_r) - u hold (note §1.4)."""
+        """x_r that makes m_us ẍ_us = f_s + f_d - k_us (x_us - x_r) - u hold (eqs. 1, 3)."""
         return x[2] + (self.m_us * a_us - self.strut(x) + u) / self.k_us
 
     def jacobian(self, x: np.ndarray | list[float]) -> np.ndarray:

@@ -1,10 +1,11 @@
-"""Seed 004 (CN101655504A): the ACC speed filter's four variants beside the note's check.
+"""Seed 004 (CN101655504A): the ACC speed filter's four variants beside a reference.
 
-The patent has no numbers; the note's §4.6 check simulation gives the figures to
-compare with. `vehil reproduce acc` runs the mixed drive over several seeds with
-the float64 reference (and, with --board, the board's filter in float32 and fixed
-point), calibrates r̄ from calibration runs, and checks the issue's bar: both
-corrections cut the braking speed error at least tenfold against the basic filter.
+The patent has no numbers; the figures to compare with are a float64 reference run of
+the mixed drive over 20 seeds (docs/estimators/acc_kf.md). `vehil reproduce acc` runs
+that drive over several seeds with the float64 reference (and, with --board, the board's
+filter in float32 and fixed point), calibrates r̄ from calibration runs, and checks the
+issue's bar: both corrections cut the braking speed error at least tenfold against the
+basic filter.
 """
 
 from __future__ import annotations
@@ -31,7 +32,8 @@ VARIANTS = {
     "+ correction 2": (0, 1),
     "+ corrections 1 + 2": (1, 1),
 }
-# Note §4.6, mean over 20 seeds: RMS not braking, RMS braking, max |e| (m/s).
+# The reference run's figures, mean over 20 seeds: RMS not braking, RMS braking, max |e|
+# (m/s).
 NOTE = {
     "raw v_m": (0.064, 0.708, 1.498),
     "basic KF": (0.046, 0.755, 1.331),
@@ -101,8 +103,8 @@ def calibration(seeds: range = range(4)) -> acc_kf.Calibration:
 def reproduce(console: Console, board: str | None = None) -> int:
     errors = variant_errors()
     t = Table(
-        title=f"{TITLE}: speed error on the note's mixed drive (m/s), mean of "
-        f"{len(SEEDS)} seeds; the note's figures (20 seeds) in brackets"
+        title=f"{TITLE}: speed error on the mixed drive (m/s), mean of "
+        f"{len(SEEDS)} seeds; the reference run's (20 seeds) in brackets"
     )
     for col in ("variant", "RMS not braking", "RMS braking", "max |e|", "bias RMS (m/s²)"):
         t.add_column(col, justify="right" if col != "variant" else "left")
@@ -133,7 +135,7 @@ def reproduce(console: Console, board: str | None = None) -> int:
     console.print(
         f"r̄ calibrated from {len(cal.segments)} segments of 4 calibration runs: {cal.rbar:.4f}; "
         f"simulated coupling r/(1+r) = {theory:.4f} ({(cal.rbar / theory - 1) * 100:+.1f} %); "
-        f"the note found 0.0284 against 0.0291"
+        f"the reference run found 0.0284 against 0.0291"
     )
     ratio = errors["basic KF"][1] / errors["+ corrections 1 + 2"][1]
     ok = ratio >= 10

@@ -1,14 +1,15 @@
-"""Seed 003 (ESO vs KF-UI on a quarter car, active suspension): the note's §4.3 orderings.
+"""Seed 003 (ESO vs KF-UI on a quarter car, active suspension): the paper's orderings.
 
-The paper prints no result numbers, only orderings (note §4.3), so `vehil reproduce eso`
+The paper prints no result numbers, only orderings in its text (Section 6), so `vehil reproduce eso`
 puts our figure beside each claim and marks it holds / fails, twice: on the shipped
 drives' car (Table 1 with +15 % m_s, +10 % k1, -10 % c1 and 75 N of smooth friction) and
 on a higher-fidelity car (HIFI: Dahl friction, stops, tire damping, progressive tire,
 enveloping, other wheel and tire, accelerometers with a scale error and 30 Hz bandwidth).
-Estimation errors are RMS against the truth passed through the conditioning's band (the
-addendum: nothing below 0.5 Hz survives the chain), after a 5 s settling time. The closed
-loops (S5, S6) run the float64 ECU against the plant here, and S5 again with the C on a
-board through the scenario runner (native unless --board names another).
+Estimation errors are RMS against the truth passed through the conditioning's band
+(nothing below its 0.5 Hz high-pass, Section 6.1, survives the chain), after a 5 s
+settling time. The closed loops (S5, S6) run the float64 ECU against the plant here, and
+S5 again with the C on a board through the scenario runner (native unless --board names
+another).
 
 Then the road estimate on three passive drives of a car the observer does not know
 (scenarios/eso/mismatch-*: +15 % m_s, -8 % k1, 60 N friction), in band, against the
@@ -37,16 +38,18 @@ TITLE = "ESO and KF-UI on a quarter car, active suspension (seed 003)"
 SETTLE_S = 5.0
 STATES = ("x_s", "v_s", "x_us", "v_us", "x_r")
 COLUMNS = (0, 1, 2, 3, 6)  # of the ECU's outputs
-EPS_THREE = (0.05, 0.1, 0.5)  # note §4.2 S1 [ASSUMPTION]
+EPS_THREE = (0.05, 0.1, 0.5)  # S1: the paper's 0.1 and two of ours, around it
 EPS_SWEEP = (0.02, 0.03, 0.05, 0.07, 0.1, 0.15, 0.2, 0.3, 0.5)
 SUSP_LIMIT = 0.08  # m
-TIRE_LIMIT = 0.018  # m: the physical reading of the printed 0.17 (note §1.2)
+# m: the paper prints 0.17, no unit; 0.17 m would be ~10x the static load, so we read the
+# no-lift-off bound, the static deflection (m_s + m_us) g / k_us.
+TIRE_LIMIT = 0.018
 U_MAX = 1500.0  # N
 
 
 @dataclass
 class LoopFigures:
-    """Note §4.1 item 8 for one closed-loop run."""
+    """Comfort and limits of one closed-loop run: body acceleration, deflections, u."""
 
     rms_a_body: float
     max_defl: float
@@ -223,7 +226,7 @@ def _fmt(x: float) -> str:
 def claims(
     console: Console, car: str, over: Mapping[str, float], board: str | None
 ) -> list[tuple[str, str, bool]]:
-    """The §4.3 orderings on one car: (claim, our figures, holds)."""
+    """The paper's orderings on one car: (claim, our figures, holds)."""
     checks: list[tuple[str, str, bool]] = []
 
     sweep = eps_sweep(over)
@@ -364,7 +367,7 @@ def reproduce(console: Console, board: str | None = None) -> int:
         car: claims(console, car, over, (board or "native") if not over else None)
         for car, over in PLANTS.items()
     }
-    t = Table(title=f"{TITLE}: the note's §4.3 orderings (the paper prints no numbers)")
+    t = Table(title=f"{TITLE}: the paper's orderings (it prints no numbers)")
     t.add_column("claim")
     for car in per_car:
         t.add_column(f"ours, {car}")

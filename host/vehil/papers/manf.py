@@ -1,7 +1,8 @@
 """Seed 000 (MANF, UIIEKF): Table 4's comparison on simulated braking, beside the paper's.
 
 The paper's data are not available; the braking plant stands in for its test
-(straight-line braking from about 90 km/h, note §4.1), with ABS cycling on dry
+(straight-line hard braking; the paper gives no speed, its Fig. 7's 700 Hz pulse rate
+on 48 teeth puts it near 90 km/h), with ABS cycling on dry
 asphalt and wheel-speed noise of variance 0.01. Table 4 row 1 gives MSE 0.0081
 (UIIEKF) and 0.0272 (MANF), units not stated; row 6 1.8 ms and 0.173 ms per step
 on a 2.66 GHz Core2 Duo.

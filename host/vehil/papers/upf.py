@@ -1,11 +1,11 @@
 """Seed 001: UPF, UKF and EKF on a four-in-wheel-motor EV (Tables 1-4), and the board.
 
-The drives are the scenarios of scenarios/upf (the `ev4wd` plant with the note's
-§5.2 vehicle; μ, speeds' geometry and sensor noise are assumptions, see the plant).
+The drives are the scenarios of scenarios/upf (the `ev4wd` plant with the shipped
+vehicle of docs/estimators/ev.md; the paper gives no car, μ, path or sensor noise).
 Every figure here is float64: the UPF (host only, N = 100), the UKF (the paper's
 α = 1e-3) and the EKF, from the same model, Q, P_0 and R. Errors are taken after the
 first second (the prior settles), lateral-force errors pooled over the four wheels
-(the paper does not say how it aggregates, note §6.1). Then the UPF's time per step
+(the paper does not say how it aggregates). Then the UPF's time per step
 against N on this host, and with --board the board's EKF and UKF: cycles per step
 from RESULT and the largest difference from float64.
 

@@ -2,7 +2,8 @@
 
 Ground truth is the longitudinal speed v(t) from a drive profile of acceleration,
 cruise and braking phases (accelerations change with a 0.15 s lag, as a driver and
-powertrain do; the car stops at 0 m/s). The sensors (note §4.6's check simulation):
+powertrain do; the car stops at 0 m/s). The sensors (the patent gives no figures;
+ours are a production-grade IMU and wheel-speed sensors):
 - accelerometer a_m = a + a_0 + noise (σ 0.10 m/s²), the bias a_0 = b0 + r·a (body
   pitch moves the sensor in proportion to acceleration) + a slow temperature drift
   + g·sin(grade) (the patent counts grade into the bias);
@@ -11,7 +12,7 @@ powertrain do; the car stops at 0 m/s). The sensors (note §4.6's check simulati
   lower deceleration model low µ), a small radius mismatch between the wheels;
 - the brake switch.
 
-Profiles (parameter `profile`): 0 the note's mixed drive (cruise, +1.5 m/s²,
+Profiles (parameter `profile`): 0 the mixed drive (cruise, +1.5 m/s²,
 cruise, -4 m/s², cruise, -3 m/s² to standstill); 1 a calibration run (±1.2 m/s²
 phases of 15 s between 15 s cruises, long enough for the basic filter's bias
 estimate to settle; it decelerates without the brake, so the wheels do not slip);

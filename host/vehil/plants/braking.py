@@ -1,8 +1,8 @@
 """A braking car for seed 000 (MANF, UIIEKF): single-track model with Burckhardt tires.
 
-States [v_x, v_y, r, ω_f, ω_r] (note §1, eqs. 2-16); the car's parameters are Table 2's
+States [v_x, v_y, r, ω_f, ω_r] (the paper's eqs. 2-16); the car's parameters are Table 2's
 (the Pride) unless the scenario names others (vehil.braking_car).
-Readings (note §1.3-1.6): braking-positive slip λ = (v - R ω cos α)/v so braking
+Readings (docs/estimators/uiiekf.md): braking-positive slip λ = (v - R ω cos α)/v so braking
 forces are positive; v̇_y = ... - r v_x (the printed "+ r v_x" is a misprint); and,
 by default, the consistent reading of the loads and forces: per-wheel static loads
 front W L_r / 2L, rear W L_f / 2L, load transfer with the signed acceleration,
@@ -11,8 +11,8 @@ wheel braked with its half of the axle's torque. `printed = 1` switches to eqs.
 (5)-(6) and the per-wheel forces with the whole mass as printed.
 
 The tires are Burckhardt's μ(λ) = ψ (c1 (1 - e^{-c2 λ}) - c3 λ), ψ = 0.85 (Table 2), with
-the surface table of note §1.5 (the paper gives no coefficients); μ/λ uses its limit
-ψ (c1 c2 - c3) as λ -> 0. The model is integrated with Heun's method at 10 kHz
+Burckhardt's published surface coefficients (the paper gives none, see vehil.braking_car);
+μ/λ uses its limit ψ (c1 c2 - c3) as λ -> 0. The model is integrated with Heun's method at 10 kHz
 (the paper's DAQ rate; a locked-up wheel's slip dynamics near standstill are stiff).
 
 The car can be one the filters do not know beyond its parameters: tires whose slip
@@ -24,10 +24,9 @@ torque follows the demand through a hydraulic lag (`brake_tau`, s); 0 leaves eac
 Brake torque profiles (`profile`): 0 a hard step, 1 a 0.3 s ramp, 2 ABS-like
 cycling that raises the torque until the more slipping wheel passes 0.3 and
 releases it below 0.08. Wheel-speed sensors (`sensor`): 0 ω with white noise of variance
-0.01 (rad/s)², 1 the real chain of note §4.1: a 48-tooth pulse train sampled at
-10 kHz with noise, a 1416 Hz low-pass, sign (with hysteresis), the frequency
-of each pulse,
-ω = 2πf/48, held at the estimator's sample time.
+0.01 (rad/s)², 1 the paper's real chain (its eq. 45 and Figs. 5-9): a 48-tooth pulse
+train sampled at 10 kHz with noise, a 1416 Hz low-pass, sign (with hysteresis), the
+frequency of each pulse, ω = 2πf/48, held at the estimator's sample time.
 """
 
 from __future__ import annotations
@@ -136,7 +135,7 @@ def _torque(
 
 
 def _pulse_chain(w: np.ndarray, dt: float, rng: np.random.Generator, noise: float) -> np.ndarray:
-    """Wheel speed as the paper's DAQ recovers it from a 48-tooth sensor (note §4.1).
+    """Wheel speed as the paper's DAQ recovers it from a 48-tooth sensor (eq. 45).
 
     The filtered signal's sign is taken with a little hysteresis (±0.3), or noise near
     a crossing counts extra pulses; between pulses the speed held is capped by the time

@@ -2,35 +2,35 @@
 
 The car is the plant's own parameters, named as the filters' (vehil.models.ev4wd's
 CAR_PARAMS but ω̇'s low-pass, which is the filters' preprocessing); their defaults,
-note §5.2's suggestions, are the shipped car the filters also default to. The paper
-gives none (note §0.2) and used CarSim. This plant is richer than the filters'
-7-state model (note §8.2):
+ours (docs/estimators/ev.md), are the shipped car the filters also default to. The
+paper gives none and used CarSim. This plant is richer than the filters' 7-state
+model, so that the comparison is not model against itself:
 - planar body v_x, v_y, γ plus position and heading for the driver; four wheel
   rotations I_w ω̇_i = T_i - R F_ix driven (and braked: regenerative) by the motors;
 - the combined-slip MF (13)-(19) on the *true* slip ratio κ_i = (ω_i R - v_ix) /
   max(|v_ix|, 3 m/s) (the floor keeps the wheel ODE stable at 1 ms), F_x quasi-static,
   F_y through the first-order relaxation (20) over `sigma_y`;
-- quasi-static load transfer (note §5.2) from the last step's a_x, a_y;
+- quasi-static load transfer (as the filters' `loads`) from the last step's a_x, a_y;
 - aero drag and rolling resistance (3), θ = 0; friction μ is a parameter;
-- per-wheel traction control and ABS (note §8.2): a wheel whose |κ| passes 0.12 has
-  its torque limit cut at 4 kN·m/s until |κ| falls below 0.04, then restored at
-  800 N·m/s, which makes the cycling slip of the paper's Figs. 6-7;
-- integrated by forward Euler at 1 ms (note §5.2), sampled at the scenario's T.
+- per-wheel traction control and ABS (the paper's Section 6.3 runs with both): a wheel
+  whose |κ| passes 0.12 has its torque limit cut at 4 kN·m/s until |κ| falls below 0.04,
+  then restored at 800 N·m/s, which makes the cycling slip of the paper's Figs. 6-7;
+- integrated by forward Euler at 1 ms, sampled at the scenario's T.
 
 Manoeuvres (`manoeuvre`), each at `speed` km/h held by a PI speed controller:
 0 double lane change: a pure-pursuit driver (preview 0.9 s) on a cosine-blended
   path, `dlc_offset` m over transitions of `dlc_length` m (ISO 3888-1 is 3.5 m over
-  ~30 m; the paper gives no geometry, note §6.1);
+  ~30 m; the paper gives no geometry);
 1 continuous steering: δ = `steer_deg` sin(2π `steer_hz` t) from 1 s, faded in over 1 s;
-2 low-μ traction (note §6.3, Fig. 6): mild torque for 6 s, then rising 90 N·m/s per
-  wheel to 400 N·m; TCS limits the spin, which starts about 8 s;
+2 low-μ traction (the paper's Section 6.3, Fig. 6): mild torque for 6 s, then rising
+  90 N·m/s per wheel to 400 N·m; TCS limits the spin, which starts about 8 s;
 3 low-μ ABS braking (Fig. 7): 80 km/h for 5 s, then a regenerative brake torque of
   60 N·m per wheel with 0.8 s pulses to 450 N·m every 2.5 s that lock the wheels.
 
-Sensors (`noise` = 1, production-like, note §5.2): a_x, a_y σ 0.1 m/s² with biases
-0.05 / -0.04 m/s²; γ σ 0.5 °/s with a 0.2 °/s bias; ω_i σ 0.2 rad/s (resolver); δ σ
-0.05°; motor torque σ 2 N·m. All are sampled, noise-free, with `noise` = 0; `noise`
-scales the σ (the biases stay).
+Sensors (`noise` = 1, production-like; the paper gives no noise levels): a_x, a_y
+σ 0.1 m/s² with biases 0.05 / -0.04 m/s²; γ σ 0.5 °/s with a 0.2 °/s bias; ω_i σ 0.2 rad/s
+(resolver); δ σ 0.05°; motor torque σ 2 N·m. All are sampled, noise-free, with
+`noise` = 0; `noise` scales the σ (the biases stay).
 
 The car is the plant's own, not the filters' (their model is vehil.models.ev4wd; this
 module evaluates its tires itself): a scenario names the car in the plant and, to

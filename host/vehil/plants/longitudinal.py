@@ -1,11 +1,11 @@
 """A front-engined sedan driving straight, as seed 002's STLQF/RLS estimators see it.
 
-Note §1: engine (eq. 1) with a throttle/speed torque map, torque converter (eq. 2,
-T_i = (ω_e / K_f)², T_t = C_tr T_i), 5-speed automatic with a shift schedule,
-brake T_b = K_b P_b acting against motion, aero, rolling and grade resistance
-(eqs. 5-10), Table 1 parameters; v and ω_e integrated with two-step Adams-Bashforth
-(eq. 30) at the sample time. The estimators get v, v̇ (exact, as the paper uses them,
-or with sensor noise) and z = F_x + σ_N N(0, 1) (eq. 27).
+The paper's model (its Section 2): engine (eq. 1) with a throttle/speed torque map, torque
+converter (eq. 2, T_i = (ω_e / K_f)², T_t = C_tr T_i), 5-speed automatic with a shift
+schedule, brake T_b = K_b P_b acting against motion (eq. 5 prints "+ T_b"), aero, rolling
+and grade resistance (eqs. 5-10), Table 1 parameters; v and ω_e integrated with two-step
+Adams-Bashforth (eq. 30) at the sample time. The estimators get v, v̇ (exact, as the paper
+uses them, or with sensor noise) and z = F_x + σ_N N(0, 1) (eq. 27).
 
 The paper omits the engine map, the converter tables and the shift schedule; the
 substitutes here (scaled to 75 kW / 155 N·m, each number's origin beside it) are:
@@ -22,28 +22,29 @@ substitutes here (scaled to 75 kW / 155 N·m, each number's origin beside it) ar
 - shifts at 2000 rpm at closed throttle up to ~5800 rpm at full throttle
   (linear in between), downshifts at 70 % of the upshift speed.
 
-Grade (`road`): 0 the GPS road of note §5.1, rebuilt: a ~1.3 km hilly street with
-steep local grades (altitude vs distance), driven once from rest by a "GPS car"
-logged at 1 s (speed, altitude, with GPS noise and dropped fixes), then processed as
-the paper does: missing fixes interpolated, speed smoothed by eq. 28 (k = 4),
-distance integrated, grade by eq. 29, and the grade against *time* applied to the
-simulated car, resampled to the sample time linearly (`resample` = 0; its kinks every
-second make the outliers of note §9) or by a cubic spline (1; the paper does not say
-how it resampled); `gps = "file.csv"` in a scenario's [plant] puts a real GPS log
-(columns t [s], speed [m/s], altitude [m]) through the same pipeline instead; 1 flat;
-2 the smooth grade 5° sin(0.3 t) of note §9 (`grade_deg` and `grade_rad_s` change its
-amplitude and frequency, for drives unlike the paper's).
+Grade (`road`): 0 the GPS road of the paper's Section 4-1, rebuilt: a ~1.3 km hilly street
+with steep local grades (altitude vs distance), driven once from rest by a "GPS car"
+logged at 1 s (speed, altitude, with GPS noise and dropped fixes), then processed as the
+paper does: missing fixes interpolated, speed smoothed by eq. 28 (k = 4), distance
+integrated, grade by eq. 29, and the grade against *time* applied to the simulated car,
+resampled to the sample time linearly (`resample` = 0; its kinks every second make STLQF's
+outliers: windows that straddle one) or by a cubic spline (1; the paper does not say how
+it resampled); `gps = "file.csv"` in a scenario's [plant] puts a real GPS log (columns t
+[s], speed [m/s], altitude [m]) through the same pipeline instead; 1 flat; 2 a smooth
+grade 5° sin(0.3 t), ours (`grade_deg` and `grade_rad_s` change its amplitude and
+frequency, for drives unlike the paper's).
 
-Drives (`profile`): 0 the paper's 75 s from rest (a throttle trace like Fig. 16's);
-1 strong throttle steps on a flat road; 2 a constant throttle, `cruise_throttle` (the car
+Drives (`profile`): 0 the paper's 75 s from rest (a throttle trace like Fig. 16's); 1
+strong throttle steps on a flat road; 2 a constant throttle, `cruise_throttle` (the car
 settles to a cruise: ψ barely moves, nothing excites RLS); `dither` adds a small fast
-throttle dither (sign flips every 20-40 ms) that the note's addendum found is what makes
-the STLQF window system well conditioned. `mass` and `cda` replace Table 1's 1250 kg and 0.48 m²
-(a heavier or draggier car than the shipped drives); `mass_step` kg is added at
-`t_mass` (a trailer or passengers); `noise` = 1 gives realistic sensors (σ 0.05 m/s
-on v, 0.1 m/s² on v̇, 10 N on z) instead of the paper's σ_N on z alone, each times
-`noise_scale`; `v_dot_bias` and `z_bias` offset those sensors, and `f_roll` replaces
-Table 1's rolling resistance coefficient 0.015 (the estimators assume it through ε)."""
+throttle dither (sign flips every 20-40 ms): on a smooth throttle the STLQF window system
+is nearly singular, the dither conditions it (docs/estimators/stlqf.md). `mass` and `cda`
+replace Table 1's 1250 kg and 0.48 m² (a heavier or draggier car than the shipped drives);
+`mass_step` kg is added at `t_mass` (a trailer or passengers); `noise` = 1 gives realistic
+sensors (σ 0.05 m/s on v, 0.1 m/s² on v̇, 10 N on z) instead of the paper's σ_N on z
+alone, each times `noise_scale`; `v_dot_bias` and `z_bias` offset those sensors, and
+`f_roll` replaces Table 1's rolling resistance coefficient 0.015 (the estimators assume it
+through ε)."""
 
 from __future__ import annotations
 
@@ -58,7 +59,7 @@ from vehil.plants import register
 from vehil.plants.base import FileInput, NoiseBlocks, PlantSpec, Trace, chunk_times, joined
 from vehil.spec import Param, Signal
 
-# Table 1 and note §1.3.
+# Table 1; ρ and g as the paper's Section 2 gives them.
 M, R_W, R_FD, K_B, I_EI, CDA, F_ROLL = 1250.0, 0.298, 4.1, 540.0, 0.16, 0.48, 0.015
 GEARS = (3.78, 2.12, 1.36, 1.03, 0.84)
 RHO, G = 1.206, 9.81
@@ -122,7 +123,7 @@ def altitude(x: np.ndarray) -> np.ndarray:
 
 
 def gps_log(duration: float, rng: np.random.Generator) -> dict[str, np.ndarray]:
-    """A simulated 1 s GPS log of a drive along the street, for note §5.1's pipeline."""
+    """A simulated 1 s GPS log of a drive along the street, for the paper's Section 4-1 pipeline."""
     t_gps = np.arange(0.0, duration + 2.0, 1.0)
     # The GPS car: from rest to ~70 km/h, easing off over the crests: ~1.3 km in 75 s.
     v_true = 19.5 * (1 - np.exp(-t_gps / 9.0)) * (1 + 0.12 * np.sin(2 * np.pi * t_gps / 31.0))
@@ -329,7 +330,7 @@ SPEC = register(
             FileInput(
                 "gps",
                 (Signal("t", "s"), Signal("speed", "m/s"), Signal("altitude", "m")),
-                "a GPS log whose grade replaces the road's (note §5.1's pipeline)",
+                "a GPS log whose grade replaces the road's (the paper's Section 4-1 pipeline)",
             ),
         ),
     )

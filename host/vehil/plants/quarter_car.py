@@ -1,11 +1,13 @@
-"""Seed 003's quarter car (note §1.1, §4.1): the rig and the SIL plant in one.
+"""Seed 003's quarter car (the paper's eqs. 1-3): the rig and the SIL plant in one.
 
 The nonlinear 2-DOF model with Table 1's parameters, integrated with RK4 on a fine grid
 (1 kHz by default) and sampled at the estimator's T; the actuator force is held between
-samples. The truth differs from the observers' nominal model (note §4.1 [ASSUMPTION]):
-sprung mass, k1 and c1 scaled and a strut Coulomb friction, so estimating uncertainty
-means something. Sensors: two accelerometers with a bias drifting within [bias_lo,
-bias_hi] (m/s²) and white noise of variance noise_var; displacements are truth only.
+samples. The truth differs from the observers' nominal model (our choice: the paper names
+friction, unmodelled dynamics and sprung-mass variation as the model's uncertainties but
+gives no sizes): sprung mass, k1 and c1 scaled and a strut Coulomb friction, so estimating
+uncertainty means something. Sensors: two accelerometers with a bias drifting within
+[bias_lo, bias_hi] (m/s²) and white noise of variance noise_var; displacements are truth
+only.
 
 The car is plants/quarter_car_truth.py's: its own equations, with what the observers'
 model lacks (Dahl strut friction, stops, tire damping, progressive tire, enveloping,
