@@ -1,4 +1,4 @@
-"""Seed 004's filter: the corrections do what the note says, and r̄ calibrates back."""
+"""Seed 004's filter: the corrections do what eqs. 6-8 say, and r̄ calibrates back."""
 
 import numpy as np
 import pytest

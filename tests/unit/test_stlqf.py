@@ -1,4 +1,5 @@
-"""STLQF and RLS (seed 002), float64: the equations as the note reads them, and recovery."""
+"""STLQF and RLS (seed 002), float64: the equations as docs/estimators/stlqf.md reads them,
+and recovery."""
 
 import math
 

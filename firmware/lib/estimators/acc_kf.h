@@ -1,4 +1,4 @@
-/* ACC reference-speed Kalman filter (seed 004, CN101655504A; note §1.7):
+/* ACC reference-speed Kalman filter (seed 004, CN101655504A, eqs. 1-8):
  * state [v_r, a_0], input a_m, measurement the mean non-driven wheel speed,
  * correction 1 (bias noise mean r̄·Δa_f) and correction 2 (C = [1 - s(k-1), 0]
  * while braking), each switchable. One filter in float32 (acc_kf_step_f32) and

@@ -1,4 +1,5 @@
-/* Seed 003's signal conditioning (note §1.3 and addendum): one accelerometer channel ->
+/* Seed 003's signal conditioning (the paper's band-pass and double integration; the
+ * filter types and the post high-pass are ours): one accelerometer channel ->
  * 2nd-order Butterworth high-pass f_hp -> 2nd-order Butterworth low-pass f_lp ->
  * trapezoid -> first-order high-pass f_post -> trapezoid -> first-order high-pass f_post
  * -> displacement. Causal; designed in configure by the bilinear transform with

@@ -1,4 +1,4 @@
-/* Seed 003's extended state observer inside the quarter-car ECU (note §1.4): two 3-state
+/* Seed 003's extended state observer inside the quarter-car ECU (the paper's Sec. 4): two 3-state
  * observers (eq. 12) on the displacements the conditioning integrates, β = 3/ε, 3/ε², 1/ε³
  * (error poles at -1/ε), Euler at T; design 1: w = (1 - e^(-T/ε))/T for 1/ε, which puts the
  * Euler loop's own poles at e^(-T/ε). Variant A: no model inside (F̂ = z3, z6). Variant B:

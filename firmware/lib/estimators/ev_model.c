@@ -132,7 +132,7 @@ uint8_t ev_model_inputs(ev_model_t *m, const uint8_t *in, ev_inputs_t *u)
         u->dr.fx[i] = (tq[i] - c->i_w * m->w_dot[i]) * c->inv_r;
     }
     m->have_w = 1;
-    /* Static loads and quasi-static transfer (note §5.2). */
+    /* Static loads and quasi-static transfer (ours: the paper gives no load model). */
     float lon = ax * c->fz_lon;
     float front = c->fz_front - lon;
     float rear = c->fz_rear + lon;

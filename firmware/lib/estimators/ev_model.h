@@ -60,11 +60,11 @@ typedef struct {
  * cost ~490 cycles each on the chip, so the constant ones are reciprocals here. */
 typedef struct {
     float m, inv_m, i_z, inv_iz, lr_iz; /* m, 1/m, I_z, 1/I_z, l_r / I_z */
-    float lx[4], byw[4];                /* wheel centres (l_i, b_i), note §1 */
+    float lx[4], byw[4];                /* wheel centres r_i = (l_i, b_i), left + */
     float i_w, inv_r;                   /* I_w, 1 / R */
     float drag, drag2, roll;            /* ½ ρ C_d A, twice that, m g f */
-    /* F_z,i = static ∓ a_x lon ∓ a_y lat (note §5.2): m g l_r / 2L, m g l_f / 2L,
-     * m h / 2L, m h l_r / (d L), m h l_f / (d L) */
+    /* F_z,i = static ∓ a_x lon ∓ a_y lat (ours: the paper has none):
+     * m g l_r / 2L, m g l_f / 2L, m h / 2L, m h l_r / (d L), m h l_f / (d L) */
     float fz_front, fz_rear, fz_lon, fz_lat_f, fz_lat_r;
     float bx_cx, by, cy, by_cy, ey, bxa, cxa, byk, cyk, sigma;
     uint8_t shape; /* EV_TIRE_*: which tire terms leave the defaults' short forms */

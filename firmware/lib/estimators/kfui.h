@@ -1,4 +1,4 @@
-/* Seed 003's EKF with an unknown input (KF-UI, note §1.5) inside the quarter-car ECU,
+/* Seed 003's EKF with an unknown input (KF-UI, the paper's Sec. 5) inside the quarter-car ECU,
  * float32. States [x_s, ẋ_s, x_us, ẋ_us], unknown input x_r by generalised least squares
  * each step (eqs. 26-33); y = [x_s, ẍ_s, x_us, ẍ_us] from the conditioned displacements
  * and the raw accelerations; printed forward-Euler prediction F = I + T J (eqs. 35-36).

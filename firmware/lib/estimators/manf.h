@@ -1,4 +1,5 @@
-/* MANF (seed 000, note §3.5): vehicle speed during braking from wheel speed alone.
+/* MANF (seed 000, eqs. 39-44 as docs/estimators/manf.md reads them): vehicle speed
+ * during braking from wheel speed alone.
  * v̂ -= T R_g tanh(v̂ - R ω) (corrected sign, reading B; switches for the printed
  * sign and reading A), R_g ×γ on a kept error sign, ×ξ on a flip, in [0, a];
  * |Δv̂| <= a T. float32 (manf_step_f32) and fixed point (manf_step_q).

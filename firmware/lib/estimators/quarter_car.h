@@ -1,4 +1,4 @@
-/* Seed 003's nominal quarter car (note §1.1, Table 1), shared by the ESO, the KF-UI and
+/* Seed 003's nominal quarter car (the paper's Sec. 3, Table 1), shared by the ESO, the KF-UI and
  * the suspension controller: the strut force f_s + f_d (eq. 2, literal square damper)
  * in float32 and in fixed point, and the model parameters read from CONFIG.
  * Params (8, in this order): m_s Q16, m_us Q16, k1 Q8, k2 Q8, k3 Q8, c1 Q16, c2 Q16, k_us Q8. */

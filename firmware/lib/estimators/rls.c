@@ -362,7 +362,7 @@ __attribute__((noinline)) static void correct(rls_state_t *s, const int32_t *t, 
     P[5] = fx_sub(P[5], mul_shr(t[2], w[2], n_p, st), st);
 }
 
-/* Note §3's update with P as P̃ 2^(e_i + e_j) (rls.h): u = 2^e ψ as ũ 2^top (Q30, its
+/* The RLS update with P as P̃ 2^(e_i + e_j) (rls.h): u = 2^e ψ as ũ 2^top (Q30, its
  * largest entry in [1/2, 1)), w̃ = P̃ ũ, so Pψ = 2^(e + top) w̃ and λ + ψᵀPψ =
  * 2^(2 top) s, s = l 2^(-2 top) + ũᵀw̃, held as s_m 2^g; the gain is
  * k = 2^(e - top) w̃ / s, and P - Pψ(Pψ)ᵀ/d is P̃ - w̃ w̃ᵀ / s in P̃'s units. */

@@ -1,4 +1,4 @@
-/* RLS with forgetting (seed 002's baseline, note §3): θ = [m, C_dA_f, m sin(ε + β_r)]
+/* RLS with forgetting (seed 002's baseline): θ = [m, C_dA_f, m sin(ε + β_r)]
  * constant, λ = 0.95, on STLQF's regression (estimators/longit.h). Forgetting pauses
  * while a variance would pass p_cap times its start (windup guard); a P that round-off
  * made non-positive restarts at P(0), flagged SINGULAR.

@@ -1,4 +1,4 @@
-/* STLQF (seed 002, note §2): m, C_dA_f and grade from an 11-sample window, each
+/* STLQF (seed 002, eqs. 11-27): m, C_dA_f and grade from an 11-sample window, each
  * parameter linear in local time, the error filtered by α, β, γ (eq. 16 corrected)
  * and weighted by A (Table 3), the estimate at the window centre (WL samples old).
  * G = Σ_k W_kᵀ A W_k is formed as Xᵀ X, X = R Φ̃, R the banded factor of the weight A

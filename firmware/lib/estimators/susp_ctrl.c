@@ -17,7 +17,7 @@ void susp_ctrl_design_f32(susp_ctrl_f32_t *c, const uint8_t *params, uint8_t fir
         p[i] = param_value(params, (uint8_t)(first + i), mode, param_range_q(susp_ctrl_ranges, i));
     }
     float h = p[P_H], hh = 0.5f * h * h;
-    /* b_i: how each predicted output moves with u (note §1.7). */
+    /* b_i: how each predicted output moves with u (the predictions of susp_ctrl.h). */
     float b1 = 1.0f / m->m_s, b2 = hh * (1.0f / m->m_s + 1.0f / m->m_us);
     float b3 = -hh / m->m_us, b4 = h / m->m_s;
     float den = p[P_R] + p[P_RHO_A] * b1 * b1 + p[P_RHO_SD] * b2 * b2 +

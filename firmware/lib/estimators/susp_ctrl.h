@@ -1,4 +1,5 @@
-/* Seed 003's pointwise-predictive suspension controller (note §1.7, reconstructed). J(u) is
+/* Seed 003's pointwise-predictive suspension controller (Sec. 6.2; the law is our
+ * reconstruction, host/vehil/estimators/_suspension_control.py). J(u) is
  * quadratic in u, so u* = -Σ ρ_i a_i b_i / (r + Σ ρ_i b_i²) is linear in the estimates:
  * configure folds the weights, the horizon and the model into seven gains,
  *   u* = -(g_F1 F̂1 + g_F2 F̂2 + g_dx Δx + g_dv Δẋ + g_td (x̂_us - x̂_r) + g_vus ẋ̂_us + g_vs ẋ̂_s),

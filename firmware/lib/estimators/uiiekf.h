@@ -1,8 +1,8 @@
-/* UIIEKF (seed 000, note §2.3): iterated EKF on the single-track braking model with
+/* UIIEKF (seed 000, eqs. 34-37): iterated EKF on the single-track braking model with
  * the brake torque as an unknown input, float32. 5 states [v_x, v_y, r, ω_f, ω_r],
- * or the straight-line reduction [v_x, ω_f, ω_r] (note §1.6). The printed iteration
- * (eq. 36, the same z applied N times) or one standard pass; the analytic Jacobian;
- * a health check that sets STATUS_DIVERGED (docs/estimators/uiiekf.md).
+ * or the straight-line reduction [v_x, ω_f, ω_r] (docs/estimators/uiiekf.md). The
+ * printed iteration (eq. 36, the same z applied N times) or one standard pass; the
+ * analytic Jacobian; a health check that sets STATUS_DIVERGED.
  *
  * Inputs  ω_f, ω_r [rad/s].   Outputs v̂_x [m/s], d̂ (innovation along C B).
  * Params  T, n_states, iterations, form, c1, c2, c3 (the model's tires), p0, q_v, q_lat,

@@ -1,9 +1,11 @@
-"""Displacements from accelerations, causally (note §1.3 and its addendum): seed 003's signal chain.
+"""Displacements from accelerations, causally: seed 003's signal chain (the paper's 0.5-20 Hz
+band-pass and double integration, Secs. 2 and 6.1; docs/estimators/eso.md).
 
 a -> 2nd-order Butterworth high-pass f_hp (removes the accelerometer bias) -> 2nd-order
 Butterworth low-pass f_lp (noise) -> trapezoid -> first-order high-pass f_post -> trapezoid
--> first-order high-pass f_post (a deviation the addendum asks for: the bias leaves an
-offset after double integration otherwise; f_post = 0 switches it off). `filtered = 0`
+-> first-order high-pass f_post. The paper gives the band, not the filters: the
+Butterworths and the post high-pass are ours (the bias leaves an offset after double
+integration otherwise; f_post = 0 switches it off). `filtered = 0`
 integrates the raw acceleration (Fig. 5's diverging case). The filters are designed by the
 bilinear transform with prewarping, as the C does in configure. The high-pass runs in
 delta form (its poles sit near z = 1; see accel_cond.h), the low-pass in direct form I.

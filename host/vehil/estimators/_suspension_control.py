@@ -1,4 +1,6 @@
-"""Seed 003's nonlinear pointwise-predictive suspension controller (note §1.7, reconstructed).
+"""Seed 003's nonlinear pointwise-predictive suspension controller, reconstructed: the paper
+(Sec. 6.2) names a pointwise index of predicted responses whose weights keep the limits,
+but gives neither the law nor the weights nor the horizon (docs/estimators/eso.md).
 
 Each output is predicted over the horizon h by a Taylor series up to the order in which u
 appears, on the model the observer updated (ẍ_s = F̂1 + u/m_s, ẍ_us = F̂2 - u/m_us, the

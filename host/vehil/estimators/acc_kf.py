@@ -1,13 +1,14 @@
 """ACC reference-speed Kalman filter (seed 004, CN101655504A) and its calibration.
 
 State x = [v_r, a_0] (speed, accelerometer bias), the raw acceleration a_m as the
-input, the mean of the two non-driven wheel speeds as the measurement (note §1.3):
+input, the mean of the two non-driven wheel speeds as the measurement (the patent's eqs. 1-3):
     v_r(k+1) = v_r(k) + T (a_m(k) - a_0(k)),   a_0(k+1) = a_0(k) (+ w)
     v_m(k)   = r_w (w_l + w_r) / 2
-Correction 1 (§1.5): the bias process noise has the mean r̄ (a_f(k) - a_f(k-1)),
-a_f the low-pass filtered acceleration (2nd-order Butterworth, note §1.9).
-Correction 2 (§1.6): while braking C = [1 - s(k-1), 0], s = 1 - v_m / v̂_r from the
-previous step. Guards the patent lacks (note §1.6 [A]): s = 0 below `v_guard`,
+Correction 1 (eq. 6): the bias process noise has the mean r̄ (a_f(k) - a_f(k-1)),
+a_f the low-pass filtered acceleration (eqs. 4a/4b leave the filter open: a 2nd-order
+Butterworth is our choice).
+Correction 2 (eqs. 7-8): while braking C = [1 - s(k-1), 0], s = 1 - v_m / v̂_r from the
+previous step. Guards the patent lacks (ours): s = 0 below `v_guard`,
 s clamped to [0, s_max]; P kept symmetric.
 
 The parameters are physical, so a scenario changes T (its sample_time) or the car in one
@@ -17,8 +18,8 @@ transform with prewarping; 0 passes a_m, the patent's high-SNR case). The per-st
 numbers are derived from them and T at CONFIG (`per_step`), on the board as here.
 
 The float64 reference here is the same step the board runs (firmware/lib/estimators/
-acc_kf.c), in double precision; `corr1`/`corr2` switch the corrections for the four
-variants the note compares.
+acc_kf.c), in double precision; `corr1`/`corr2` switch the corrections: the basic filter,
+either correction alone, or both.
 """
 
 from __future__ import annotations
@@ -47,7 +48,7 @@ PARAMS = (
         default=1e-3,
         lo=0.0,
         hi=10.0,
-        doc="speed process-noise density: Q11 = n_v T (note §1.9's 1e-5 at 10 ms)",
+        doc="speed process-noise density: Q11 = n_v T (1e-5 at 10 ms; not in the patent)",
     ),
     Param(
         "n_b",
@@ -56,12 +57,12 @@ PARAMS = (
         default=1e-4,
         lo=0.0,
         hi=1.0,
-        doc="bias random-walk density: Q22 = n_b T (note §1.9's 1e-6 at 10 ms)",
+        doc="bias random-walk density: Q22 = n_b T (1e-6 at 10 ms; not in the patent)",
     ),
     Param("R", "(m/s)^2", q=24, default=0.05, lo=1e-6, hi=100.0, doc="measurement noise"),
     Param("p0_v", "(m/s)^2", q=24, default=1.0, lo=0.0, hi=7.9, doc="P(0) speed"),
     Param("p0_b", "(m/s^2)^2", q=30, default=0.1, lo=0.0, hi=1.0, doc="P(0) bias"),
-    Param("rbar", "1", q=30, default=0.0284, lo=-1.0, hi=1.0, doc="calibrated r̄ (note §4.6)"),
+    Param("rbar", "1", q=30, default=0.0284, lo=-1.0, hi=1.0, doc="r̄, eq. 5 (acc-calibrate)"),
     Param("corr1", "1", q=0, default=1.0, lo=0.0, hi=1.0, doc="correction 1 on (1) / off (0)"),
     Param("corr2", "1", q=0, default=1.0, lo=0.0, hi=1.0, doc="correction 2 on (1) / off (0)"),
     Param("v_guard", "m/s", q=16, default=0.5, lo=0.0, hi=10.0, doc="no slip below this speed"),
@@ -72,7 +73,7 @@ PARAMS = (
         default=2.0,
         lo=0.0,
         hi=100.0,
-        doc="low-pass cutoff of a_f (note §1.9), at most 0.4/T; 0: a_f = a_m",
+        doc="low-pass cutoff of a_f, at most 0.4/T; 0: a_f = a_m",
     ),
     Param(
         "nis_max",
@@ -133,7 +134,7 @@ def per_step(p: Mapping[str, float]) -> PerStep:
 
 @dataclass
 class AccKF:
-    """The on-line filter of note §1.7, float64. step(u) with u = [a_m, w_l, w_r, brake]."""
+    """The patent's on-line filter (eqs. 1-8), float64. step(u) with u = [a_m, w_l, w_r, brake]."""
 
     p: Mapping[str, float]
 
@@ -170,7 +171,8 @@ class AccKF:
         v_m = p["r_w"] * (w_l + w_r) / 2
         braking = brake > 0.5
         if not self.started:
-            # x̂(0) = [v_m(0), 0]; the LPF starts in steady state at a_m(0) (note §1.5.3 [X]).
+            # x̂(0) = [v_m(0), 0]; the LPF starts in steady state at a_m(0) (the patent gives no
+            # initial state; from rest its start-up would enter â_0 as r̄ (a_f(k) - a_f(0))).
             self.started = True
             self.v, self.a0 = v_m, 0.0
             self.u_prev = a_m
@@ -178,7 +180,7 @@ class AccKF:
             self.af_hist = [a_m, a_m]
             self.diverged.append(False)
             return np.array([self.v, self.a0])
-        # Prediction with the previous input and noise mean (note §1.7).
+        # Prediction with the previous input and noise mean, as the patent orders it.
         w2 = self.w2_prev if p["corr1"] >= 0.5 else 0.0
         v_pred = self.v + T * (self.u_prev - self.a0)
         b_pred = self.a0 + w2
@@ -216,12 +218,12 @@ def run(params: Mapping[str, float], inputs: np.ndarray) -> np.ndarray:
     return np.array([kf.step(u) for u in inputs])
 
 
-# -- offline calibration of r̄ (note §1.5.2, eq. 5) ---------------------------------
+# -- offline calibration of r̄ (the patent's eq. 5 and Fig. 3) ---------------------
 
 
 @dataclass(frozen=True)
 class Segment:
-    """One change of a_f from a steady level to another (note Fig. 3)."""
+    """One change of a_f from a steady level to another (the patent's Fig. 3)."""
 
     start: int  # S
     end: int  # E1

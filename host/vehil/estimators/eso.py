@@ -1,6 +1,6 @@
 """Seed 003's extended state observer on the quarter car, and the board's whole ECU task.
 
-Two 3-state observers (note §1.4, eq. 12), one per subsystem, fed with the displacements
+Two 3-state observers (the paper's Sec. 4, eq. 12), one per subsystem, fed with the displacements
 the conditioning chain integrates from the two accelerometers. Bandwidth
 parameterisation: the error dynamics are (s + 1/ε)³.
 - Variant A (literal, "total disturbance"): no model inside; β = 3/ε, 3/ε², 1/ε³;
@@ -13,10 +13,11 @@ parameterisation: the error dynamics are (s + 1/ε)³.
 - Variant B (model-assisted, "model updating"): the nominal strut's nonlinear terms
   f_nl = k2 Δx² + k3 Δx³ + c2 Δẋ² inside both observers; the linear strut terms and the
   tire are left to z3 and z6, so the error dynamics at equilibrium stay (s + 1/ε)³ with the
-  same gains. (The addendum: the whole model inside with the triple gains leaves a pole
-  near -0.24 rad/s; gains placed per block for k1/m, c1/m leave the coupled pair at
-  -0.3 ± 6.8j. Leaving out the terms that move the poles is its other remedy.)
-- The no-updating baseline (reference only): the full nominal model, extended states off;
+  same gains. (The whole model inside with the triple gains leaves a pole near
+  -0.24 rad/s; gains placed per block for k1/m, c1/m leave the coupled pair at
+  -0.3 ± 6.8j. Leaving out the terms that move the poles avoids both.)
+- The no-updating baseline (reference only; the paper compares with it, Figs. 7-8, but
+  does not define it): the full nominal model, extended states off;
   x̂_r by inverting the unsprung equation with the filtered acceleration.
 All integrate with Euler at T from the current measurement (ZOH); the baseline with ten
 Euler sub-steps (its model holds the stiff tire). The B-vectors are physical (1/m_s,
@@ -48,8 +49,9 @@ ROAD_FROM_MODEL, ROAD_FROM_BODY = 0, 1
 
 
 def gains(eps: float, T: float = 0.0, design: int = 0) -> np.ndarray:
-    """[β1..β6] = 3w, 3w², w³ for both observers. Design 0 (the theorem of §1.4): w = 1/ε,
-    error poles at -1/ε for the continuous observer, which Euler at T only approximates.
+    """[β1..β6] = 3w, 3w², w³ for both observers. Design 0 (the paper's gain theorem, Sec. 4):
+    w = 1/ε, error poles at -1/ε for the continuous observer, which Euler at T only
+    approximates.
     Design 1: w = (1 - e^{-T/ε})/T, which puts the Euler loop's own error poles (the
     step's z += T ż) at e^{-T/ε}, triple, for any T/ε: docs/estimators/eso.md."""
     w = (1.0 - math.exp(-T / eps)) / T if design == DESIGN_DISCRETE else 1.0 / eps
@@ -116,7 +118,8 @@ class Eso:
 
 
 class NoUpdate:
-    """The "without model updating" baseline (note §1.4 [ASSUMPTION])."""
+    """The "without model updating" baseline of the paper's Figs. 7-8, which it does not
+    define: ours, as the module docstring says."""
 
     SUBSTEPS = 10
 

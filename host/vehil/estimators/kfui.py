@@ -1,12 +1,14 @@
-"""Seed 003's EKF with an unknown input (KF-UI, note §1.5, after Yang, Pan & Huang).
+"""Seed 003's EKF with an unknown input (KF-UI, the paper's Sec. 5 and Appendix, after
+Yang, Pan & Huang).
 
 States [x_s, ẋ_s, x_us, ẋ_us], the unknown input x_r estimated each step by generalised
 least squares; four outputs y = [x_s, ẍ_s, x_us, ẍ_us]: the conditioned displacements and
-the raw (biased, noisy) accelerations. Recursion (26)-(33) as the note cleaned it up:
+the raw (biased, noisy) accelerations. Recursion (26)-(33) as docs/estimators/kfui.md reads it:
 prediction with the printed forward Euler, F = I + T J, or RK4 with F = expm(J T)
 (`KfUi(p, rk4=True)`, host only: Euler at 100 Hz is unstable for the wheel-hop mode open
 loop, |1 + λT| = 1.079, and the board runs Euler); the covariance update as printed (33).
-Q = 10⁻² I, R = diag(r_x, r_a, r_x, r_a), P0 = p0 I, S0 = s0 (assumed, note §1.5).
+Q = 10⁻² I and R = diag(r_x, r_a, r_x, r_a) as the paper's; P0 = p0 I and S0 = s0 are not in
+the paper (our choice).
 
 The `kfui` spec is the board's task with the KF-UI in place of the ESO (float32 only):
 conditioning -> KF-UI -> controller, same inputs and outputs as `eso`.

@@ -1,12 +1,12 @@
 """MANF and the original ANF: vehicle speed during braking from wheel speed alone (seed 000).
 
-MANF (note §3.2-3.5) tracks the wheel's circumferential speed R ω with a rate-limited
-tanh law and an adaptive gain R_g: ×γ while the error keeps its sign, ×ξ when it flips,
-R_g in [0, a], |v̂(k) - v̂(k-1)| <= a T. The printed update (eq. 44) has the wrong
-feedback sign and leaves out T; by default this builds the corrected law of §3.5
-(reading B: v̂ -= T R_g tanh(v̂ - R ω)), with switches for the printed sign, the
-literal reading A (no T: R_g in m/s per step) and the wheel used (front, rear, or the
-faster of the two). The ANF of [3] (eq. 38: sgn and a fixed gain) is the baseline.
+MANF (the paper's Sec. 3.2, eqs. 39-44) tracks the wheel's circumferential speed R ω with a
+rate-limited tanh law and an adaptive gain R_g: ×γ while the error keeps its sign, ×ξ when
+it flips, R_g in [0, a], |v̂(k) - v̂(k-1)| <= a T. The printed update (eq. 44) has the wrong
+feedback sign and leaves out T; by default this builds the corrected law (reading
+B: v̂ -= T R_g tanh(v̂ - R ω); docs/estimators/manf.md), with switches for the printed
+sign, the literal reading A (no T: R_g in m/s per step) and the wheel used (front, rear,
+or the faster of the two). The ANF of [3] (eq. 38: sgn and a fixed gain) is the baseline.
 """
 
 from __future__ import annotations
@@ -59,7 +59,7 @@ def gamma_within_range(p: Mapping[str, float], mode: str = "F32") -> str | None:
 
 
 class Manf:
-    """Note §3.5, float64. step([ω_f, ω_r]) -> [v̂, R_g]."""
+    """MANF as docs/estimators/manf.md reads it, float64. step([ω_f, ω_r]) -> [v̂, R_g]."""
 
     def __init__(self, p: Mapping[str, float]):
         if problem := gamma_within_range(p):
@@ -76,7 +76,7 @@ class Manf:
         if self.v is None:
             self.v = v_w  # v̂(0) = R ω(0)
             return np.array([self.v, self.rg])
-        e = self.v - v_w  # the a-priori error, for the law and the adaptation (§3.4.3)
+        e = self.v - v_w  # the a-priori error, for the law and the adaptation (manf.md)
         s = int(np.sign(e))
         if self.s_prev != 0 and s != 0:
             self.rg *= self.gamma if s == self.s_prev else self.xi

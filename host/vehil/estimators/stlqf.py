@@ -2,14 +2,14 @@
 
 Both fit eq. 24, m v̇ + C_dA_f ½ρv² + m sin(ε + β_r) g/cos ε = F_x, with
 ψ = [v̇, ½ρv², g/cos ε] and θ = [m, C_dA_f, m sin(ε + β_r)]; grade β̂_r = asin(θ̂_3/θ̂_1) - ε
-(note §2.3, ε = atan f known).
+(the paper's eqs. 24-27, ε = atan f known).
 
-STLQF (note §2.2, the corrected reading of §8): each parameter is linear in local
-time inside an 11-sample window (r = 1, WL = 5), the generalised error is filtered
-with α = 1 + χ1/T + χ2/T², β = -(χ1/T + 2χ2/T²), γ = χ2/T², and the window cost of
-eq. 23 with the weights A (Table 3) is minimised; the estimate is the linear model
-at the window centre, WL samples (0.05 s) old. Two things differ from the paper,
-both because its 6×6 system is nearly singular (note §9 and the addendum):
+STLQF (the paper's eqs. 11-23, eq. 16's misprinted β taken from eq. 14): each parameter is
+linear in local time inside an 11-sample window (r = 1, WL = 5), the generalised error is
+filtered with α = 1 + χ1/T + χ2/T², β = -(χ1/T + 2χ2/T²), γ = χ2/T², and the window cost
+of eq. 23 with the weights A (Table 3) is minimised; the estimate is the linear model at the
+window centre, WL samples (0.05 s) old. Two things differ from the paper, both because its
+6×6 system is nearly singular on smooth drives (docs/estimators/stlqf.md):
 - Eq. 23's G = Σ_k W_kᵀ A W_k is formed as Xᵀ X with X = R Φ̃, R the banded Cholesky
   factor of the 9×9 weight that A spreads over the window's nine filtered rows (so
   the weights cost nothing per step), and the filters are taken as differences
@@ -31,10 +31,11 @@ The float64 reference below is the same step as the board's C (firmware/lib/
 estimators/stlqf.c); `exact_cond` keeps numpy's condition number of the scaled,
 unregularised G per window for the report.
 
-RLS (note §3): λ = 0.95 on the same regression with constant parameters; forgetting
-pauses while a variance would exceed `p_cap` times its start value (without that, P
-grows as λ^-n in unexcited directions and float32 loses the estimate); a P whose
-round-off made a variance non-positive restarts at P(0), flagged SINGULAR.
+RLS (the paper's baseline, after its ref. [14]): λ = 0.95 on the same regression with
+constant parameters; forgetting pauses while a variance would exceed `p_cap` times its start
+value (without that, P grows as λ^-n in unexcited directions and float32 loses the
+estimate); a P whose round-off made a variance non-positive restarts at P(0), flagged
+SINGULAR.
 """
 
 from __future__ import annotations

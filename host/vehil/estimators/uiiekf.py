@@ -1,13 +1,14 @@
 """UIIEKF: vehicle speed during braking with the brake torque as an unknown input (seed 000).
 
-The filter's model is its own (docs/estimators/uiiekf.md): the single-track braking
-model of note §1 with δ = 0 and no brake torque, the consistent reading of the loads
+The filter's model is its own (docs/estimators/uiiekf.md): the single-track braking model of
+the paper's eqs. 1-16 with δ = 0 and no brake torque, the consistent reading of the loads
 and forces, Burckhardt tires (c1, c2, c3: dry asphalt's by default), and the car's
-parameters (Table 2, the Pride, by default: m, R, I_ω, K_b, ψ, h, L_f, L_r are
-parameters, so another car is a few lines of a scenario). Euler-discretised:
-x(k+1) = x + T f(x) + B d, B = T [0, 0, 0, -K_b, -(1 - K_b)]ᵀ / I_ω (only its
-direction matters, note §1.2). The measurement update removes any innovation along
-C B, so the unknown torque never pulls the speed (note §2.1, Gillijns-De Moor):
+parameters (Table 2, the Pride, by default: m, R, I_ω, K_b, ψ, h, L_f, L_r are parameters,
+so another car is a few lines of a scenario). Euler-discretised: x(k+1) = x + T f(x) + B d,
+B = T [0, 0, 0, -K_b, -(1 - K_b)]ᵀ / I_ω (only its direction matters: scaling B leaves the
+gain L unchanged). The measurement update removes any innovation along C B, so the unknown
+torque never pulls the speed (the paper's linear UIKF after its ref. [28], the form of
+Gillijns & De Moor):
     F = C P Cᵀ + R,  K = P Cᵀ F⁻¹,  L = K + (I - K C) B (Bᵀ Cᵀ F⁻¹ C B)⁻¹ Bᵀ Cᵀ F⁻¹
     x += L (z - C x),  P = (I - L C) P (I - L C)ᵀ + L R Lᵀ
 repeated N times as printed (eq. 36: the same z applied N times), or once
@@ -15,7 +16,7 @@ repeated N times as printed (eq. 36: the same z applied N times), or once
 pass is the whole iteration). Time update (eq. 37) with the analytic Jacobian
 J_φ = I + T ∂f/∂x. Tuning (Table 3): P(0) = 10 I, R = 0.01 I, Q small.
 
-`n_states = 3` is the straight-line reduction of note §1.6 (v_y = r = 0): states
+`n_states = 3` is the straight-line reduction (v_y = r = 0): states
 [v_x, ω_f, ω_r], the same equations with δ = 0. With δ = 0 the 5-state model's lateral
 block is decoupled from the wheels exactly (∂F_x/∂v_lat = ∂F_y/∂ω = 0 at v_lat = 0), so
 v_y and r stay zero and the 5-state filter gives the 3-state one's speed.

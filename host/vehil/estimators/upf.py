@@ -1,15 +1,15 @@
 """Seed 001: EKF, UKF and the unscented particle filter on the 7-state EV model.
 
-All three share the model of `models/ev4wd.py` (note §2.9-2.10) with the car their
+All three share the model of `models/ev4wd.py` (the paper's Sec. 3, eqs. 26-30) with the car their
 parameters name (`Car`: every vehicle and tire constant), its input preprocessing,
 Q, P_0 and R: fixed, or adaptive by (66)-(69) (`adaptive`). A step
 takes the sensors of sample k: it predicts from the last estimate with the last
 inputs u_{k-1} (31), then corrects with y_k (32), and outputs the corrected state
 and β. The first sample only corrects the prior.
 
-- EKF (note §8.1.5): analytic Jacobians (see `jacobians`), P = F P Fᵀ + Q, then the
-  seven measurements as sequential scalar updates (R is diagonal, so this is the
-  batch update; the board does the same and never inverts a 7×7).
+- EKF (the paper's baseline in Fig. 4): analytic Jacobians (see `jacobians`),
+  P = F P Fᵀ + Q, then the seven measurements as sequential scalar updates (R is
+  diagonal, so this is the batch update; the board does the same and never inverts a 7×7).
 - EKF3 (the board's reduced EKF): x = [v_x, v_y, γ], the lateral forces not states
   but the quasi-static G_yκ F_y0 at the estimate ((20) at steady state), so F is 3×3
   and H 7×3. One tire evaluation per step (they dominate the board's cycles), at the
@@ -25,7 +25,7 @@ and β. The first sample only corrects the prior.
   causes. float32 cannot carry α = 1e-3 even so (the spread is 2.6e-3 σ): the board
   spec's default is α = 1, a deviation from the paper's 0.001 that float64 tables do
   not need.
-- UPF (host only, note §3): N particles, each with its own UKF on the augmented
+- UPF (host only, the paper's Sec. 4): N particles, each with its own UKF on the augmented
   state (n_a = 21, 43 sigma points, α = 1e-3, β = 2, κ = 0 as printed) as proposal
   (57), weights (60) in the log domain with p(y|x) = N(h(x), R_k) and p(x_k|x_{k-1})
   = N(f(x_{k-1}), Q), the weighted mean (62) as output, systematic resampling every
