@@ -9,10 +9,9 @@ paper gives none.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 
-from vehil.spec import Param
+from vehil.spec import Param, ParamRecord
 
 CAR_PARAMS = (
     Param("m", "kg", q=0, default=850.0, lo=100.0, hi=5000.0, doc="vehicle mass"),
@@ -45,7 +44,7 @@ SURFACE_DOC = ", ".join(f"{k} {v[0]}" for k, v in SURFACES.items())
 
 
 @dataclass(frozen=True)
-class Car:
+class Car(ParamRecord):
     """The values of CAR_PARAMS, by name."""
 
     m: float
@@ -62,10 +61,6 @@ class Car:
     a_f: float
     h_a: float
     g: float
-
-    @classmethod
-    def of(cls, p: Mapping[str, float]) -> Car:
-        return cls(**{f.name: float(p[f.name]) for f in fields(cls)})
 
     @property
     def wheelbase(self) -> float:

@@ -9,7 +9,8 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
+from typing import Self
 
 INT32_RANGE = (-(2**31), 2**31 - 1)
 
@@ -61,3 +62,13 @@ def resolve_params(
     if problems:
         raise ValueError("; ".join(problems))
     return values
+
+
+@dataclass(frozen=True)
+class ParamRecord:
+    """Resolved parameters as a typed record: subclasses declare float fields named
+    like the parameters (a car's m, l_f, ...), and `of` fills them from a mapping."""
+
+    @classmethod
+    def of(cls, p: Mapping[str, float]) -> Self:
+        return cls(**{f.name: float(p[f.name]) for f in fields(cls)})

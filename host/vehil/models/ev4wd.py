@@ -24,12 +24,12 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
 
-from vehil.spec import Param, Signal
+from vehil.spec import Param, ParamRecord, Signal
 
 # The car: every vehicle and tire constant of the model, a parameter of the filters (their
 # CONFIG) and, separately, of the truth plant. Defaults: ours, the paper gives none.
@@ -62,7 +62,7 @@ CAR_PARAMS = (
 
 
 @dataclass(frozen=True)
-class Car:
+class Car(ParamRecord):
     """The values of CAR_PARAMS, by name, and what the model derives from them."""
 
     m: float
@@ -89,10 +89,6 @@ class Car:
     c_yk: float
     sigma_y: float
     tau_wdot: float
-
-    @classmethod
-    def of(cls, p: Mapping[str, float]) -> Car:
-        return cls(**{f.name: float(p[f.name]) for f in fields(cls)})
 
     @property
     def wheelbase(self) -> float:
