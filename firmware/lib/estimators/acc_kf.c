@@ -237,8 +237,7 @@ static inline __attribute__((always_inline)) gain_t gain(int32_t x, fx_recip16_t
     if (prod >= UINT32_C(0x7fffc000)) { /* (prod + 2^15) 2^-16 <= 0xfffe */
         return (gain_t){(uint16_t)((prod + 0x8000u) >> 16), sh, neg, top, e};
     }
-    /* (prod + 2^14) 2^-15 as a one-bit shift up and a word: < 2^31, no carry out */
-    return (gain_t){(uint16_t)(((prod + 0x4000u) << 1) >> 16), (int16_t)(sh + 1), neg, top, e};
+    return (gain_t){fx_round_q15(prod), (int16_t)(sh + 1), neg, top, e}; /* prod < 2^31 - 2^14 */
 }
 
 /* k x in Q30 for the gain k = x / S that gain() made from x (Q28): one 16 x 16 product of

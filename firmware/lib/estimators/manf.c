@@ -153,7 +153,7 @@ static inline uint32_t t_tanh(const manf_params_q_t *p, uint32_t mag_e)
     uint16_t frac = fx_grid16_cell(mag_e, 24, &k);
     uint32_t lo = p->t_tanh[k];
     uint16_t d = (uint16_t)(p->t_tanh[k + 1u] - lo); /* <= 0.1 tanh(1/16) 2^23 + 1 < 2^16 */
-    return lo + (((fx_umul16x16(d, frac) + 0x4000u) << 1) >> 16);
+    return lo + fx_round_q15(fx_umul16x16(d, frac));
 }
 
 static uint8_t step_q(manf_state_t *st, const uint8_t *in, uint8_t *out)

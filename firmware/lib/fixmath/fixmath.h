@@ -245,6 +245,10 @@ FX_INLINE uint32_t fx_umul16x16(uint16_t a, uint16_t b) { return (uint32_t)a * b
 FX_INLINE int32_t fx_smul16x16(int16_t a, uint16_t b) { return (int32_t)a * (int32_t)b; }
 #endif
 
+/* p · 2^-15 rounded half up, for p < 2^31 - 2^14 (a 16 × 16 product by a Q15 fraction): a
+ * doubling and a two-byte shift, where the AVR loops on a 15-bit one. */
+FX_INLINE uint16_t fx_round_q15(uint32_t p) { return (uint16_t)(((p + 0x4000u) << 1) >> 16); }
+
 /* a · b · 2^-s for an int16 b (1 <= s <= 30), ties away from zero like fx_mul_rs, and the
  * same bits: two 16 × 16 hardware products and byte shifts, no int64. Only a = INT32_MIN,
  * b = INT16_MIN, s = 15 and smaller shifts can leave int32: those saturate (flagged). */
@@ -288,7 +292,7 @@ FX_INLINE uint32_t fx_umul16_q15(uint32_t a, uint16_t b)
     uint16_t al = (uint16_t)a;
     uint32_t hi = fx_umul16x16(ah, b);
     uint32_t lo = fx_umul16x16(al, b); /* < 2^31 - 2^15: doubling it with the half cannot wrap */
-    return (hi << 1) + (((lo + 0x4000u) << 1) >> 16);
+    return (hi << 1) + fx_round_q15(lo);
 }
 
 uint32_t fx_umul16_q15_c(uint32_t a, uint16_t b);
