@@ -33,6 +33,10 @@ from vehil.models.quarter_car import NOMINAL
 G = 9.81
 RATE_STEP = 1.0  # RK4 step times the fastest rate: well inside stability (~2.8)
 MAX_PARTS = 1000  # RK4 steps in one integration step before the drive is refused
+PAST_THE_CAR = (
+    "the drive is past what this car can model; lower the speed or the road class, or give it "
+    "stops (stop_gap) and lift_off"
+)
 
 
 @dataclass(frozen=True)
@@ -149,18 +153,13 @@ class TruthCar:
             raise PlantLimit(
                 f"the quarter car needs {parts} RK4 steps in one {h:g} s step "
                 f"(fastest rate {self.rate(x, r0):.3g} 1/s at deflection {x[0] - x[2]:+.3f} m, "
-                f"Δẋ {x[1] - x[3]:+.2f} m/s): the drive is past what this car can model; "
-                "lower the speed or the road class, or give it stops (stop_gap) and lift_off"
+                f"Δẋ {x[1] - x[3]:+.2f} m/s): {PAST_THE_CAR}"
             )
         hp = h / parts
         for i in range(parts):
             x = self.rk4(x, u, r0 + (r1 - r0) * i / parts, r0 + (r1 - r0) * (i + 1) / parts, hp)
         if not _finite(x):
-            raise PlantLimit(
-                "the quarter car's state stopped being finite: the drive is past what this "
-                "car can model; lower the speed or the road class, or give it stops "
-                "(stop_gap) and lift_off"
-            )
+            raise PlantLimit(f"the quarter car's state stopped being finite: {PAST_THE_CAR}")
         if x[2] - r1 > self.jump_max:
             raise PlantLimit(
                 f"the wheel is {x[2] - r1:.2f} m above the road (jump_max {self.jump_max:g} m):"
