@@ -15,6 +15,7 @@ buffers' worth behind them and overrun the buffer when it wakes.
 
 from __future__ import annotations
 
+import contextlib
 import time
 from collections import deque
 from collections.abc import Iterable, Iterator
@@ -211,6 +212,7 @@ class Link:
         self.in_flight = 0  # their bytes: never more than the board's RX buffer
         self.probes = 0  # empty PINGs sent to learn that the board has read its input
         self._probe_seq = 0
+        self._held: bytearray | None = None  # frames sent while corked, not yet written
         # Short reads, set once: changing a real port's timeout reconfigures the tty.
         self.port.timeout = _READ_SLICE_S
 
@@ -223,6 +225,7 @@ class Link:
 
     def _read_frame(self, deadline: float) -> tuple[framing.Frame, float] | None:
         """Next frame with its arrival time, or None once the deadline has passed."""
+        self._write_held()
         while not self._inbox:
             if time.perf_counter() > deadline:
                 return None
@@ -270,11 +273,37 @@ class Link:
         type_code = SCHEMA.messages[name].type
         self._sent_types[seq] = type_code
         wire = framing.encode(type_code, seq, body)
+        if self._held is not None:
+            self._held += wire
+        else:
+            self._write(wire)
+        return wire, time.perf_counter()
+
+    def _write(self, data: bytes) -> None:
         try:
-            self.port.write(wire)
+            self.port.write(data)
         except (serial.SerialException, OSError) as exc:
             raise LinkError(f"the connection to the board broke: {exc}") from None
-        return wire, time.perf_counter()
+
+    def _write_held(self) -> None:
+        if self._held:
+            data, self._held = bytes(self._held), bytearray()
+            self._write(data)
+
+    @contextlib.contextmanager
+    def corked(self) -> Iterator[None]:
+        """Within the block, frames sent are held and written together, in one write,
+        when the link next waits for a frame or the block ends: a burst of requests then
+        reaches the board back to back at the line rate, however slowly the host packs
+        them (a request's sent_at is when it was packed)."""
+        self._held = bytearray()
+        try:
+            yield
+        finally:
+            try:
+                self._write_held()
+            finally:
+                self._held = None
 
     def _unsolicited(self, f: framing.Frame) -> LinkError:
         if f.name == "INFO":
