@@ -498,7 +498,7 @@ static int32_t product(int32_t a, int32_t b, int8_t n, uint8_t *st)
  * out at the exponent it returns: ζ's own, or coarser where a term would pass 2^28. Each
  * product is rounded once at that exponent by a fixed-shift kernel; four terms below
  * 2^28 keep the sum in int32. */
-static int8_t residual(const stlqf_q_t *q, const int32_t r[3][2 * STLQF_ROWS], const int8_t *e_r,
+static int8_t residual(const stlqf_q_t *q, const int32_t r[3][STLQF_ROWS], const int8_t *e_r,
                        const int32_t *prior, int32_t *out)
 {
     /* a term's operands: the row (|r| < 2^27) or g' (Q26, < 2^30), θ (Q16) */
@@ -535,34 +535,42 @@ static uint8_t solve_q(stlqf_state_t *s, int32_t *log_cond)
     for (uint8_t a = 0; a < 6u; a++) {
         prior[a] = (a & 1u) ? fx_add(q->theta[a], q->theta[a - 1u], &st) : 0;
     }
-    /* The rows in int32, one exponent per channel (the largest row's): v̇'s ψ̃ and e,
-     * ½ρv²'s, ζ. */
-    int32_t r[3][2 * STLQF_ROWS];
+    /* The rows in int32, one exponent per channel (the largest row's): v̇'s ψ̃, ½ρv²'s,
+     * ζ, and the time column's e of the first two. */
+    int8_t peak[3] = {INT8_MIN, INT8_MIN, INT8_MIN};
+    for (uint8_t j = 0; j < STLQF_ROWS; j++) {
+        const int8_t *k = s->rows.q[j].k;
+        for (uint8_t ch = 0; ch < 3u; ch++) {
+            peak[ch] = k[ch] > peak[ch] ? k[ch] : peak[ch];
+        }
+    }
+    int32_t r[3][STLQF_ROWS], e_col[2][STLQF_ROWS];
+    uint8_t at = s->head;
+    for (uint8_t j = 0; j < STLQF_ROWS; j++) {
+        const int32_t *m = s->rows.q[at].m;
+        const int8_t *k = s->rows.q[at].k;
+        uint8_t down = (uint8_t)(peak[0] - k[0]);
+        r[0][j] = shift_down(m[0], down);
+        e_col[0][j] = shift_down(m[2], down);
+        down = (uint8_t)(peak[1] - k[1]);
+        r[1][j] = shift_down(m[1], down);
+        e_col[1][j] = shift_down(m[3], down);
+        r[2][j] = shift_down(m[4], (uint8_t)(peak[2] - k[2]));
+        at = at == STLQF_ROWS - 1u ? 0u : (uint8_t)(at + 1u);
+    }
     int8_t e_r[3];
     for (uint8_t ch = 0; ch < 3u; ch++) {
-        int8_t top = INT8_MIN;
-        for (uint8_t j = 0; j < STLQF_ROWS; j++) {
-            int8_t k = s->rows.q[j].k[ch];
-            top = k > top ? k : top;
-        }
-        for (uint8_t j = 0; j < STLQF_ROWS; j++) {
-            const uint8_t at = slot(s, j);
-            const int32_t *m = s->rows.q[at].m;
-            uint8_t down = (uint8_t)(top - s->rows.q[at].k[ch]);
-            r[ch][j] = shift_down(m[ch < 2u ? ch : 4u], down);
-            r[ch][STLQF_ROWS + j] = ch < 2u ? shift_down(m[2u + ch], down) : 0;
-        }
-        e_r[ch] = (int8_t)(top - row_q[ch]);
+        e_r[ch] = (int8_t)(peak[ch] - row_q[ch]);
     }
     int16_t x[5][STLQF_ROWS]; /* [τ v̇, v̇, τ q, q] and the residual, as X */
     int8_t e[6];
     int32_t col[STLQF_ROWS];
-    for (uint8_t c = 0; c < 4u; c++) {
-        uint8_t ch = (uint8_t)(c >> 1);
+    for (uint8_t ch = 0; ch < 2u; ch++) {
         for (uint8_t j = 0; j < STLQF_ROWS; j++) { /* |τ ψ̃ + e| < 6 · 2^27 */
-            col[j] = (c & 1u) ? r[ch][j] : times_tau(r[ch][j], j) + r[ch][STLQF_ROWS + j];
+            col[j] = times_tau(r[ch][j], j) + e_col[ch][j];
         }
-        e[c] = (int8_t)(e_r[ch] + weigh(q->band, col, x[c]));
+        e[2u * ch] = (int8_t)(e_r[ch] + weigh(q->band, col, x[2u * ch]));
+        e[2u * ch + 1u] = (int8_t)(e_r[ch] + weigh(q->band, r[ch], x[2u * ch + 1u]));
     }
     int8_t e_res = residual(q, r, e_r, prior, col);
     e_res = (int8_t)(e_res + weigh(q->band, col, x[4]));
