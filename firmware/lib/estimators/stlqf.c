@@ -32,6 +32,10 @@ static uint8_t unknown(uint8_t i)
     return i == 0u ? 0u : i < STLQF_LAST ? (uint8_t)(i + 1u) : STLQF_MASS;
 }
 
+/* unknown(3) and unknown(4) are θ's 4 and 5, g/cos ε's (solve_q reads their constant
+ * Gram entries by the solve's order) */
+typedef char stlqf_g_prime_is_unknowns_3_4[STLQF_MASS == 1u && STLQF_LAST == 5u ? 1 : -1];
+
 /* Time of row j from the window centre, in samples. */
 static int8_t tau(uint8_t j) { return (int8_t)((int8_t)j - (int8_t)CENTRE); }
 
@@ -243,17 +247,21 @@ static const uint8_t row_q[3] = {24 + 6, 18 + 6, 14 + 6};
 
 static uint64_t magnitude(int64_t x) { return x < 0 ? (uint64_t)0 - (uint64_t)x : (uint64_t)x; }
 
-/* v τ(j) for |τ| <= 7 by shifts and adds (an int32 product is a library call on the AVR). */
-typedef char stlqf_tau_fits_three_bits[CENTRE <= 7u && STLQF_ROWS - 1u - CENTRE <= 7u ? 1 : -1];
+/* The time column τ ψ̃ + e down the window, τ = j - CENTRE, each product by its constant
+ * τ in shifts and adds (an int32 product is a library call on the AVR). */
+typedef char stlqf_time_column_is_written_out[STLQF_ROWS == 9u && CENTRE == 3u ? 1 : -1];
 
-static int32_t times_tau(int32_t v, uint8_t j)
+static void time_column(const int32_t *psi, const int32_t *e, int32_t *col)
 {
-    int8_t t = tau(j);
-    uint8_t m = (uint8_t)(t < 0 ? -t : t);
-    int32_t p = m & 1u ? v : 0;
-    p += m & 2u ? 2 * v : 0;
-    p += m & 4u ? 4 * v : 0;
-    return t < 0 ? -p : p;
+    col[0] = e[0] - (2 * psi[0] + psi[0]);
+    col[1] = e[1] - 2 * psi[1];
+    col[2] = e[2] - psi[2];
+    col[3] = e[3];
+    col[4] = e[4] + psi[4];
+    col[5] = e[5] + 2 * psi[5];
+    col[6] = e[6] + (2 * psi[6] + psi[6]);
+    col[7] = e[7] + 4 * psi[7];
+    col[8] = e[8] + (4 * psi[8] + psi[8]);
 }
 
 /* x · 2^up, rounded, saturated. A left shift is checked and done in int32: the AVR
@@ -566,9 +574,7 @@ static uint8_t solve_q(stlqf_state_t *s, int32_t *log_cond)
     int8_t e[6];
     int32_t col[STLQF_ROWS];
     for (uint8_t ch = 0; ch < 2u; ch++) {
-        for (uint8_t j = 0; j < STLQF_ROWS; j++) { /* |τ ψ̃ + e| < 6 · 2^27 */
-            col[j] = times_tau(r[ch][j], j) + e_col[ch][j];
-        }
+        time_column(r[ch], e_col[ch], col); /* |τ ψ̃ + e| < 6 · 2^27 */
         e[2u * ch] = (int8_t)(e_r[ch] + weigh(q->band, col, x[2u * ch]));
         e[2u * ch + 1u] = (int8_t)(e_r[ch] + weigh(q->band, r[ch], x[2u * ch + 1u]));
     }
@@ -577,15 +583,20 @@ static uint8_t solve_q(stlqf_state_t *s, int32_t *log_cond)
     e[4] = q->e_g[0];
     e[5] = q->e_g[1];
     const int16_t *xs[6] = {x[0], x[1], x[2], x[3], q->x_g[0], q->x_g[1]}; /* θ's */
-    int32_t g[36], rhs[6], scale[6];
+    const int16_t *xu[6]; /* the same in the solve's order */
     for (uint8_t i = 0; i < 6u; i++) {
-        uint8_t a = unknown(i);
+        xu[i] = xs[unknown(i)];
+    }
+    int32_t g[36], rhs[6], scale[6];
+    int32_t *gi = g;
+    for (uint8_t i = 0; i < 6u; i++, gi += 6) {
+        /* Gi / 2^32 in Q30: diagonal < 1/2; g/cos ε's own entries are constant (θ's 4 and
+         * 5, the solve's unknowns 3 and 4) */
+        uint8_t known = i == 3u || i == 4u ? 3u : 6u;
         for (uint8_t j = 0; j <= i; j++) {
-            uint8_t b = unknown(j);
-            /* Gi / 2^32 in Q30: diagonal < 1/2; g/cos ε's own entries are constant */
-            g[i * 6u + j] = (a >= 4u && b >= 4u ? q->g_gg[a + b - 8u] : dot_q(xs[a], xs[b])) >> 2;
+            gi[j] = (j < known ? dot_q(xu[i], xu[j]) : q->g_gg[i + j - 6u]) >> 2;
         }
-        rhs[i] = dot_q(xs[a], x[4]) >> (32 - DELTA_Q);
+        rhs[i] = dot_q(xu[i], x[4]) >> (32 - DELTA_Q);
     }
     for (uint8_t i = 0; i < 6u; i++) {
         int32_t *gii = &g[i * 6u + i];
@@ -598,15 +609,29 @@ static uint8_t solve_q(stlqf_state_t *s, int32_t *log_cond)
         *log_cond = INT32_MAX;
         return (uint8_t)(st | STATUS_SINGULAR);
     }
-    /* The condition estimate of the Jacobi-scaled matrix: its pivots are L_ii² / G_ii. */
-    int32_t lo = 0, hi = 0;
     for (uint8_t i = 0; i < 6u; i++) {
         uint8_t a = unknown(i);
-        int32_t pivot = 2 * fx_log2_q24(l[i * 7u], 15) - fx_log2_q24(scale[i], 30);
-        lo = (i == 0u || pivot < lo) ? pivot : lo;
-        hi = (i == 0u || pivot > hi) ? pivot : hi;
         int32_t step = scale_pow2(rhs[i], (int16_t)(e_res - e[a] + THETA_Q - DELTA_Q), &st);
         q->theta[a] = fx_add(prior[a], step, &st);
+    }
+    /* The condition estimate of the Jacobi-scaled matrix: its pivots are L_ii² / G_ii. The
+     * log2 of one is within [E - 2, E + 1], E = 2 bits(L_ii) - bits(G_ii) from the bit
+     * lengths, so only a pivot whose E is within 3 of the least or the largest can be an
+     * extreme and needs its two logarithms. */
+    int8_t rough[6], least = INT8_MAX, most = INT8_MIN;
+    for (uint8_t i = 0; i < 6u; i++) {
+        rough[i] = (int8_t)(2 * longit_bit_length((uint32_t)l[i * 7u]) -
+                            longit_bit_length((uint32_t)scale[i]));
+        least = rough[i] < least ? rough[i] : least;
+        most = rough[i] > most ? rough[i] : most;
+    }
+    int32_t lo = INT32_MAX, hi = INT32_MIN;
+    for (uint8_t i = 0; i < 6u; i++) {
+        if (rough[i] <= least + 3 || rough[i] >= most - 3) {
+            int32_t pivot = 2 * fx_log2_q24(l[i * 7u], 15) - fx_log2_q24(scale[i], 30);
+            lo = pivot < lo ? pivot : lo;
+            hi = pivot > hi ? pivot : hi;
+        }
     }
     *log_cond = fx_mul_shr(hi - lo, 323228497 /* log10 2, Q30 */, 30, &st);
     /* The prior's share of m̂ (docs/estimators/stlqf.md), at most 1: μ G_mm / L_mm², the

@@ -2,23 +2,24 @@
 
 #include "fixmath/fixmath.h"
 
-/* floor(sqrt(x)), bit by bit. */
+/* floor(sqrt(x)): the root's bits from the top, each kept where the root so far squared
+ * stays at most x; its high byte from x's top half by 8 × 8 products (floor(sqrt(x)) >> 8
+ * is floor(sqrt(x >> 16))), its low byte by 16 × 16 ones. Hardware products, where a
+ * restoring root shifted two int32 a bit at a time. */
 static uint16_t isqrt(uint32_t x)
 {
-    uint32_t root = 0, bit = (uint32_t)1 << 30;
-    while (bit > x) {
-        bit >>= 2;
+    uint16_t top = (uint16_t)(x >> 16);
+    uint8_t hi = 0;
+    for (uint8_t bit = 0x80u; bit != 0u; bit >>= 1) {
+        uint8_t t = (uint8_t)(hi | bit);
+        hi = (uint16_t)((uint16_t)t * t) <= top ? t : hi;
     }
-    while (bit != 0u) {
-        if (x >= root + bit) {
-            x -= root + bit;
-            root = (root >> 1) + bit;
-        } else {
-            root >>= 1;
-        }
-        bit >>= 2;
+    uint16_t root = (uint16_t)((uint16_t)hi << 8);
+    for (uint8_t bit = 0x80u; bit != 0u; bit >>= 1) {
+        uint16_t t = (uint16_t)(root | bit);
+        root = fx_umul16x16(t, t) <= x ? t : root;
     }
-    return (uint16_t)root;
+    return root;
 }
 
 /* floor(2^31 / l) for 2 <= l < 2^15, restoring division with the remainder (below l) in
@@ -29,6 +30,10 @@ static uint32_t recip31(uint16_t l)
 {
     uint16_t rem = 1;
     uint8_t left = 31;
+    if (l > 256u) { /* eight doublings at once */
+        rem = 256;
+        left = 23;
+    }
     while (left != 0u && (uint16_t)(rem << 1) < l) {
         rem = (uint16_t)(rem << 1);
         left--;
