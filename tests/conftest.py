@@ -29,6 +29,7 @@ os.environ.pop("COLUMNS", None)
 ONE_WORKER_MODULES = {
     "tests/hil/test_labgrid_hil.py",  # the lab: a coordinator, an exporter, two boards
     "tests/hil/test_vendored_hil.py",  # the fixture project's build
+    "tests/hil/test_kernels_hil.py",  # the kernels' fixture project's build
     "tests/hil/test_flash_hil.py",  # the board flashed once
     "tests/native/test_campaign_native.py",  # a campaign on a local Dask cluster
     "tests/native/test_sweep_native.py",  # a sweep of six runs

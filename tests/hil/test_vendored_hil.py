@@ -5,72 +5,27 @@ an estimator in an opaque, size-checked state slot. The project's image holds on
 they run on the native board, simavr and QEMU with the same bits, within float32's
 rounding of the float64 reference (the project's own check_boards.py)."""
 
-import fcntl
-import os
 import shutil
 import subprocess
-import sys
-from pathlib import Path
 
 import pytest
+from fixture_projects import FIXTURES, build, project_pytest, vehil_python
 
 from vehil.paths import BUILD_DIR
 
 pytestmark = [pytest.mark.hil, pytest.mark.long]
 
-PROJECT = Path(__file__).resolve().parents[1] / "fixtures" / "vendoring"
+PROJECT = FIXTURES / "vendoring"
 CACHE = BUILD_DIR / "vendoring-fixture"  # kept between runs: the builds are incremental
 
 
 def _vehil(*argv: str) -> subprocess.CompletedProcess:
-    return _vehil_python("-m", "vehil", *argv)
-
-
-def _vehil_python(
-    *argv: str, cwd: Path = PROJECT, cache: Path = CACHE, timeout: float = 900
-) -> subprocess.CompletedProcess:
-    """Python in a project's folder, with a cache of its own."""
-    env = {k: v for k, v in os.environ.items() if k != "VEHIL_PROJECT"}
-    env["VEHIL_CACHE"] = str(cache)
-    return subprocess.run(
-        [sys.executable, *argv],
-        cwd=cwd,
-        env=env,
-        capture_output=True,
-        text=True,
-        timeout=timeout,
-    )
-
-
-def _project_pytest(
-    target: str, project: Path = PROJECT, cache: Path = CACHE
-) -> subprocess.CompletedProcess:
-    """pytest in a project's folder, as its CI would run it: vehil's plugin, none of
-    vehil's own conftest files."""
-    where = str(project)
-    return _vehil_python(
-        "-m",
-        "pytest",
-        "-q",
-        "-p",
-        "no:cacheprovider",
-        "--confcutdir",
-        where,
-        "--rootdir",
-        where,
-        target,
-        cwd=project,
-        cache=cache,
-    )
+    return vehil_python("-m", "vehil", *argv, cwd=PROJECT, cache=CACHE)
 
 
 @pytest.fixture(scope="module")
 def project_built() -> subprocess.CompletedProcess:
-    """`vehil build` in the project, one worker at a time (they share its cache)."""
-    CACHE.mkdir(parents=True, exist_ok=True)
-    with (CACHE / ".lock").open("w") as lock:
-        fcntl.flock(lock, fcntl.LOCK_EX)
-        built = _vehil("build")
+    built = build(PROJECT, CACHE)
     assert built.returncode == 0, built.stdout + built.stderr
     return built
 
@@ -88,7 +43,7 @@ def test_the_image_holds_the_two_wrappers_and_no_example_of_the_libraries(projec
 def test_on_native_simavr_and_qemu_the_same_bits_within_float64(project_built) -> None:  # noqa: ANN001
     """The project's own check (check_boards.py), run as its CI would: pytest in its
     folder, vehil's pytest plugin running the scenarios on each board."""
-    done = _project_pytest("check_boards.py")
+    done = project_pytest("check_boards.py", PROJECT, CACHE)
     assert done.returncode == 0, done.stdout + done.stderr
     assert "2 passed" in done.stdout
 
@@ -117,7 +72,7 @@ def test_a_wrapper_skeleton_builds_and_passes_as_written(tmp_path) -> None:  # n
     cache = BUILD_DIR / "vendoring-skeleton"
 
     def vehil(*argv: str) -> subprocess.CompletedProcess:
-        return _vehil_python("-m", "vehil", *argv, cwd=project, cache=cache)
+        return vehil_python("-m", "vehil", *argv, cwd=project, cache=cache)
 
     for name, header in (
         ("ring_wrap", "third_party/ringavg/ringavg.h"),
@@ -131,6 +86,6 @@ def test_a_wrapper_skeleton_builds_and_passes_as_written(tmp_path) -> None:  # n
     assert "VEHIL_SLOT_CHECK(SpeedObserver, obs_wrap_state_t, lib);" in wrapper
     built = vehil("build")
     assert built.returncode == 0, built.stdout + built.stderr
-    tests = _project_pytest("tests", project, cache)
+    tests = project_pytest("tests", project, cache)
     assert tests.returncode == 0, tests.stdout + tests.stderr
     assert "6 passed" in tests.stdout

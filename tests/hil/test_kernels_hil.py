@@ -1,0 +1,30 @@
+"""Assembly kernels that only float32 paths use, which no bit-exact drive holds to their C
+twins: a fixture project (tests/fixtures/kernels) builds an image whose probe estimator
+runs a kernel on each SAMPLE's operands, and its own check (check_kernels.py) holds the
+assembly on simavr to the C twin on the native board and to Python's integers, on edge
+and random operands."""
+
+import subprocess
+
+import pytest
+from fixture_projects import FIXTURES, build, project_pytest
+
+from vehil.paths import BUILD_DIR
+
+pytestmark = [pytest.mark.hil, pytest.mark.long]
+
+PROJECT = FIXTURES / "kernels"
+CACHE = BUILD_DIR / "kernels-fixture"  # kept between runs: the builds are incremental
+
+
+@pytest.fixture(scope="module")
+def project_built() -> subprocess.CompletedProcess:
+    built = build(PROJECT, CACHE)
+    assert built.returncode == 0, built.stdout + built.stderr
+    return built
+
+
+def test_bfp24_dot_on_simavr_gives_the_c_twins_bits(project_built) -> None:  # noqa: ANN001
+    done = project_pytest("check_kernels.py", PROJECT, CACHE)
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert "2 passed" in done.stdout
