@@ -60,6 +60,7 @@ struct options {
 	const char *profile;		/* --profile FILE; NULL: off */
 	const char *profile_map;	/* the functions' address ranges */
 	const char *profile_window;	/* ranges that open a window; NULL: the run */
+	const char *timing;		/* --timing FILE; NULL: off */
 };
 extern struct options opt;
 void usage(FILE *f);
@@ -120,6 +121,13 @@ void wake_paced(void);
 void sleep_free(avr_t *avr, avr_cycle_count_t howlong);
 void sleep_realtime(avr_t *avr, avr_cycle_count_t howlong);
 void rt_pace(avr_t *avr);
+void above_the_host(void);
+extern FILE *g_timing;
+extern atomic_uint_fast64_t g_read_ns;
+uint64_t sim_ns(avr_t *avr);
+void timing_in(size_t n);
+void timing_out(size_t n, uint64_t start, uint64_t end);
+void timing_behind(uint64_t by);
 
 /* bootloader.c */
 extern atomic_int g_reset_request;

@@ -60,6 +60,9 @@ void usage(FILE *f)
 "  --profile-window R count only from the PC entering ranges R\n"
 "                     (LO-HI[,LO-HI...], hex) until it leaves them in that\n"
 "                     frame; default: the whole run, cut by SIGUSR1\n"
+"  --timing FILE      with --realtime: log each batch of client bytes fed to\n"
+"                     the UART and each write to the client, with the wall\n"
+"                     clock and simulated time (see sim/README.md)\n"
 "  -v, --verbose      more simavr logging (repeatable)\n"
 "  -q, --quiet        no simavr logging\n"
 "  -h, --help         this help\n"
@@ -85,7 +88,7 @@ static int parse_u64(const char *s, uint64_t *v)
 void parse_args(int argc, char **argv)
 {
 	enum { O_TCP = 256, O_PTY, O_MCU, O_FREQ, O_RT, O_LIMIT, O_VCD, O_GDB, O_DELAY, O_BOOT, O_IMAGE,
-		O_PROFILE, O_PROFILE_MAP, O_PROFILE_WINDOW };
+		O_PROFILE, O_PROFILE_MAP, O_PROFILE_WINDOW, O_TIMING };
 	static const struct option lo[] = {
 		{ "tcp", required_argument, NULL, O_TCP },
 		{ "pty", no_argument, NULL, O_PTY },
@@ -101,6 +104,7 @@ void parse_args(int argc, char **argv)
 		{ "profile", required_argument, NULL, O_PROFILE },
 		{ "profile-map", required_argument, NULL, O_PROFILE_MAP },
 		{ "profile-window", required_argument, NULL, O_PROFILE_WINDOW },
+		{ "timing", required_argument, NULL, O_TIMING },
 		{ "verbose", no_argument, NULL, 'v' },
 		{ "quiet", no_argument, NULL, 'q' },
 		{ "help", no_argument, NULL, 'h' },
@@ -176,6 +180,9 @@ void parse_args(int argc, char **argv)
 		case O_PROFILE_WINDOW:
 			opt.profile_window = optarg;
 			break;
+		case O_TIMING:
+			opt.timing = optarg;
+			break;
 		case 'v':
 			if (opt.log_level < LOG_DEBUG)
 				opt.log_level++;
@@ -216,6 +223,10 @@ void parse_args(int argc, char **argv)
 	}
 	if (!opt.profile && (opt.profile_map || opt.profile_window)) {
 		diag("--profile-map and --profile-window need --profile FILE");
+		exit(EXIT_USAGE);
+	}
+	if (opt.timing && !opt.realtime) {
+		diag("--timing compares simulated time with the wall clock: it needs --realtime");
 		exit(EXIT_USAGE);
 	}
 	int want = opt.bootloader ? 0 : 1;

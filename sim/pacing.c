@@ -3,6 +3,8 @@
 #include "bridge.h"
 
 #include <errno.h>
+#include <sched.h>
+#include <string.h>
 #include <time.h>
 
 uint64_t mono_ns(void)
@@ -42,8 +44,11 @@ avr_cycle_count_t rt_base_cycle;
 /* Waits until the monotonic clock reaches deadline, or input for the UART
  * arrives, or something needs attention.  Returns early in the last two
  * cases.  (Runs on the sim thread; the reader thread signals rt_cond.) */
+static void timing_caught_up(void);
 static void rt_wait(uint64_t deadline)
 {
+	if (g_timing)
+		timing_caught_up();
 	struct timespec ts = { (time_t)(deadline / 1000000000u), (long)(deadline % 1000000000u) };
 	pthread_mutex_lock(&rt_lock);
 	while (!input_wakes() && !atomic_load(&g_attention)) {
@@ -51,6 +56,30 @@ static void rt_wait(uint64_t deadline)
 			break;
 	}
 	pthread_mutex_unlock(&rt_lock);
+	if (g_timing) {
+		uint64_t now = mono_ns();
+		if (now > deadline + 200000)
+			fprintf(g_timing, "overslept %llu %llu\n", (unsigned long long)deadline,
+				(unsigned long long)now);
+	}
+}
+
+/* Under a real-time scheduling policy, inherited from the host that started us, the
+ * bridge's threads (this one and the reader, started later) take one priority above
+ * the host's: simulated time, like a chip's clock, must not wait while the host's own
+ * threads keep both cores busy at the same priority for a whole round-robin slice. */
+void above_the_host(void)
+{
+	int policy = sched_getscheduler(0);
+	struct sched_param sp;
+	if ((policy != SCHED_RR && policy != SCHED_FIFO) || sched_getparam(0, &sp) != 0)
+		return;
+	if (sp.sched_priority < sched_get_priority_max(policy)) {
+		sp.sched_priority++;
+		if (sched_setscheduler(0, policy, &sp) != 0)
+			diag("cannot take real-time priority %d above the host's: %s",
+				sp.sched_priority, strerror(errno));
+	}
 }
 
 /* Free-running: a sleeping CPU just skips ahead to the next timer. */
@@ -80,7 +109,52 @@ void sleep_realtime(avr_t *avr, avr_cycle_count_t howlong)
 /* Realtime, CPU running: never let simulated time get ahead of wall time. */
 void rt_pace(avr_t *avr)
 {
-	uint64_t sim = rt_base_ns + cycles_to_ns(avr->cycle - rt_base_cycle, avr->frequency);
-	if (sim > mono_ns())
+	uint64_t sim = sim_ns(avr), now = mono_ns();
+	if (sim > now)
 		rt_wait(sim);
+	else if (g_timing)
+		timing_behind(now - sim);
+}
+
+/* --timing: where an exchange's wall time went (see sim/README.md, "Timing log") */
+FILE *g_timing;
+atomic_uint_fast64_t g_read_ns;	/* when the reader thread last read client bytes */
+static uint64_t behind_from, behind_most;
+
+uint64_t sim_ns(avr_t *avr)
+{
+	return rt_base_ns + cycles_to_ns(avr->cycle - rt_base_cycle, avr->frequency);
+}
+
+void timing_in(size_t n)
+{
+	fprintf(g_timing, "in %llu %llu %llu %llu %zu\n",
+		(unsigned long long)atomic_load(&g_read_ns), (unsigned long long)mono_ns(),
+		(unsigned long long)g_avr->cycle, (unsigned long long)sim_ns(g_avr), n);
+}
+
+void timing_out(size_t n, uint64_t start, uint64_t end)
+{
+	fprintf(g_timing, "out %llu %llu %llu %llu %zu\n", (unsigned long long)start,
+		(unsigned long long)end, (unsigned long long)g_avr->cycle,
+		(unsigned long long)sim_ns(g_avr), n);
+}
+
+/* A stretch in which simulated time was behind the wall clock at every pacing check;
+ * logged when it ends, if it ever was more than 200 us behind. */
+void timing_behind(uint64_t by)
+{
+	uint64_t now = mono_ns();
+	if (!behind_from)
+		behind_from = now;
+	if (by > behind_most)
+		behind_most = by;
+}
+
+static void timing_caught_up(void)
+{
+	if (behind_from && behind_most > 200000)
+		fprintf(g_timing, "behind %llu %llu %llu\n", (unsigned long long)behind_from,
+			(unsigned long long)mono_ns(), (unsigned long long)behind_most);
+	behind_from = behind_most = 0;
 }

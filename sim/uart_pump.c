@@ -34,6 +34,8 @@ ssize_t ring_read(void)
 		n = space;
 	ssize_t r = read(g_fd, rx_ring + idx, n);
 	if (r > 0) {
+		if (g_timing)
+			atomic_store(&g_read_ns, mono_ns());
 		atomic_store_explicit(&rx_head, head + (size_t)r, memory_order_release);
 		wake_paced();
 		return r;
@@ -101,8 +103,13 @@ static void write_all(const uint8_t *p, size_t n)
 
 void out_flush(void)
 {
-	if (out_len)
+	if (out_len && g_timing) {
+		uint64_t start = mono_ns();
 		write_all(out_buf, out_len);
+		timing_out(out_len, start, mono_ns());
+	} else if (out_len) {
+		write_all(out_buf, out_len);
+	}
 	out_len = 0;
 	out_flush_now = 0;
 }
@@ -152,6 +159,7 @@ void feed_uart(void)
 	size_t head = atomic_load_explicit(&rx_head, memory_order_acquire);
 	if (atomic_load(&g_reset_request))
 		return;		/* a new client's bytes are for the chip after its reset */
+	size_t first = tail;
 	while (tail != head && !g_uart_xoff) {
 		uint8_t b = rx_ring[tail % RX_RING_SIZE];
 		tail++;
@@ -159,6 +167,8 @@ void feed_uart(void)
 		in_last_cycle = g_avr->cycle;
 	}
 	atomic_store_explicit(&rx_tail, tail, memory_order_release);
+	if (g_timing && tail != first)
+		timing_in(tail - first);
 }
 
 int rx_pending(void)

@@ -168,6 +168,8 @@ void finish(int code)
 	if (opt.bootloader && g_avr && g_avr->flash)	/* NULL after simavr's cpu_Done */
 		save_flash_image(g_avr);
 	profiler_finish();
+	if (g_timing)
+		fclose(g_timing);
 	if (g_vcd_open) {
 		avr_vcd_stop(&g_vcd);
 		avr_vcd_close(&g_vcd);
@@ -276,6 +278,10 @@ int main(int argc, char **argv)
 		setup_vcd(avr);
 	if (opt.profile && profiler_setup(avr) != 0)
 		return EXIT_SETUP;
+	if (opt.timing && !(g_timing = fopen(opt.timing, "w"))) {
+		diag("cannot write the timing log '%s': %s", opt.timing, strerror(errno));
+		return EXIT_SETUP;
+	}
 
 	if (opt.gdb_port >= 0) {
 		avr->gdb_port = opt.gdb_port;
@@ -286,8 +292,10 @@ int main(int argc, char **argv)
 		avr->state = cpu_Stopped;	/* until gdb says continue */
 	}
 	avr->sleep = opt.realtime ? sleep_realtime : sleep_free;
-	if (opt.realtime)
+	if (opt.realtime) {
 		prctl(PR_SET_TIMERSLACK, 1000UL);	/* 1 us instead of 50 us */
+		above_the_host();
+	}
 
 	/* transport */
 	int ls = -1, port = 0;

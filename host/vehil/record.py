@@ -90,6 +90,10 @@ class Recorder:
         )
         self._rows: dict[str, list[Any]] = {name: [] for name in self.schema.names}
         self.rows_written = 0
+        # The batch that ends the file, made now: pyarrow's first array from Python values
+        # imports pandas (0.15-0.5 s), which must not land in the first flush, in the middle
+        # of a real-time run.
+        self._end = pa.record_batch({n: [] for n in self.schema.names}, schema=self.schema)
 
     def append(self, row: dict[str, Any]) -> None:
         for name, values in self._rows.items():
@@ -112,8 +116,9 @@ class Recorder:
     def close(self, end: dict[str, Any]) -> None:
         self.flush()
         end = {**end, "samples": self.rows_written}
-        empty = pa.record_batch({n: [] for n in self.schema.names}, schema=self.schema)
-        self._writer.write_batch(empty, custom_metadata={"end": json.dumps(end, default=_jsonable)})
+        self._writer.write_batch(
+            self._end, custom_metadata={"end": json.dumps(end, default=_jsonable)}
+        )
         self._writer.close()
         self._sink.close()
 

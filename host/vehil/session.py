@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import gc
 import itertools
+import os
 import queue
 import sys
 import threading
@@ -131,11 +132,28 @@ def _real_time(on: bool) -> Iterator[None]:
         gc.unfreeze()
 
 
+def _below_the_loop() -> None:
+    """Puts the calling thread one real-time priority below the loop's, if the loop runs
+    under a real-time policy. At the same priority, a round-robin thread that is awake
+    keeps its core for its whole time slice (100 ms): the loop, waking from its sleep with
+    both cores taken, waited for it (stalls of 10-70 ms while a chunk was made). Below
+    the loop but above the host's ordinary work, the thread is preempted by the loop and
+    never kept off a core by that work while it holds the interpreter's lock (a priority
+    inversion). Under ordinary scheduling it keeps the loop's niceness, for that reason."""
+    if not hasattr(os, "sched_getscheduler"):  # not Linux
+        return
+    policy = os.sched_getscheduler(0)
+    if policy in (os.SCHED_RR, os.SCHED_FIFO):
+        prio = os.sched_getparam(0).sched_priority
+        if prio > os.sched_get_priority_min(policy):
+            # pid 0 is this thread on Linux: the loop's own thread keeps its priority
+            os.sched_setscheduler(0, policy, os.sched_param(prio - 1))
+
+
 def _made_ahead(items: Iterator[Item], depth: int) -> Iterator[Item]:
     """`items`, made on a thread of their own up to `depth` ahead of the consumer; an
-    exception raised making them is raised here, in order. The thread keeps the loop's
-    scheduling priority: one below it would hold the interpreter's lock, when it has it,
-    for as long as the host's other work kept it from running (a priority inversion)."""
+    exception raised making them is raised here, in order. The thread runs just below the
+    loop (_below_the_loop)."""
     made: queue.Queue[tuple[bool, Item | BaseException | None]] = queue.Queue(maxsize=depth)
     stop = threading.Event()
 
@@ -150,6 +168,7 @@ def _made_ahead(items: Iterator[Item], depth: int) -> Iterator[Item]:
 
     def make() -> None:
         try:
+            _below_the_loop()
             for item in items:
                 if not put((True, item)):
                     return

@@ -4,15 +4,19 @@ These are the product's regression: the real avr-gcc image, the real
 simulators, bytes through a socket, every reply checked.
 """
 
+import contextlib
+import os
 import random
 import struct
+import threading
 
 import pytest
 
-from vehil.boards import BoardOptions, open_board
+from vehil.boards import BoardOptions, SimavrOptions, make_board, open_board
 from vehil.build.budget import DEEPEST_SHIPPED_STACK, USER_ESTIMATOR_RAM
 from vehil.errors import BoardError
 from vehil.ping import run_ping
+from vehil.protocol import frame as framing
 from vehil.protocol.schema import SCHEMA
 
 pytestmark = pytest.mark.hil
@@ -128,3 +132,42 @@ def test_simavr_realtime_serves_its_uart_on_loopback_tcp(built) -> None:  # noqa
         assert len(s.rtt_s) == 50
         # by the chip's clock no exchange is shorter than its bytes' time on simavr's wire
         assert s.board_interval_s.min() >= s.wire_bytes * 11 / 1_000_000
+
+
+def test_simavr_realtime_logs_where_each_exchange_went_and_runs_above_a_real_time_host(
+    built,  # noqa: ANN001
+    tmp_path,  # noqa: ANN001
+) -> None:
+    """--timing: one `in` and one `out` line for each stop-and-wait PING, in order, on the
+    host's clock; started by a thread under SCHED_RR 10, the bridge runs at 11."""
+    board = make_board(
+        "simavr-realtime", BoardOptions(timeout_s=3.0), SimavrOptions(timing=tmp_path / "t")
+    )
+    seen: dict = {}
+
+    def run() -> None:
+        with contextlib.suppress(PermissionError, AttributeError):  # the log is checked anyway
+            os.sched_setscheduler(0, os.SCHED_RR, os.sched_param(10))
+        with board.session() as link:
+            seen["bridge"] = os.sched_getparam(board.process.proc.pid).sched_priority
+            seen["ours"] = os.sched_getparam(0).sched_priority
+            pings = [("PING", {"payload": b"x" * 16})] * 20
+            seen["sent"] = [r.sent_at for r in link.pipeline(pings, window=1)]
+
+    t = threading.Thread(target=run)
+    t.start()
+    t.join()
+    if seen["ours"] == 10:
+        assert seen["bridge"] == 11
+    events = [line.split() for line in (tmp_path / "t").read_text().splitlines()]
+    ins = [[int(x) for x in e[1:]] for e in events if e[0] == "in"]
+    outs = [[int(x) for x in e[1:]] for e in events if e[0] == "out"]
+    # the last 20 exchanges: a request's bytes read after it was sent, fed after they were
+    # read, its reply written after its bytes were fed, and the wire's time at least apart
+    for sent, (read, feed, c_in, _, n), (start, end, c_out, _, _) in zip(
+        seen["sent"], ins[-20:], outs[-20:], strict=True
+    ):
+        assert n == len(framing.encode(0, 1, bytes(16)))
+        assert read <= feed <= start <= end
+        assert abs(read - sent * 1e9) < 0.1e9
+        assert c_out - c_in >= 16 * 11 * n  # 11 bits a byte at 1 Mbaud, 16 cycles a µs

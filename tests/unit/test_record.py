@@ -74,3 +74,27 @@ def test_other_files_are_refused_by_name(tmp_path) -> None:  # noqa: ANN001
     path.write_text("hello")
     with pytest.raises(record.RecordingError, match="notes.arrow: not a vehil recording"):
         record.read(path)
+
+
+def test_a_recorder_loads_what_its_batches_need_before_the_first_one(tmp_path) -> None:  # noqa: ANN001
+    """pyarrow imports pandas on its first array made from Python values (0.15-0.5 s): in
+    a fresh interpreter, making the recorder loads it, so the first flush, in the middle
+    of a real-time run, loads no module."""
+    import subprocess
+    import sys
+
+    script = f"""
+import sys
+from vehil import record
+schema = record.columns(["u"], ["y"], ["y"])
+rec = record.Recorder(__import__("pathlib").Path({str(tmp_path / "r.arrow")!r}), schema, {{}})
+before = set(sys.modules)
+rec.append({{"k": 0, "t": 0.0, "in.u": 1.0, "truth.y": 0.0, "ref.y": 0.0, "board.y": 0.0,
+            "status": 0, "cycles": 1, "rtt_s": 1e-3, "late": False}})
+rec.flush()
+print(sorted(set(sys.modules) - before))
+"""
+    out = subprocess.run(
+        [sys.executable, "-c", script], capture_output=True, text=True, check=True
+    ).stdout
+    assert out.strip() == "[]"

@@ -49,3 +49,43 @@ def test_a_consumer_that_stops_early_stops_the_maker() -> None:
     assert next(it) == 0
     it.close()  # the loop ended (a board error, say): the thread must not linger
     assert threading.active_count() == before
+
+
+def _in_thread_at_rr(priority: int, body):  # noqa: ANN001, ANN202
+    """body() on a thread of its own under SCHED_RR `priority` (pid 0: that thread alone);
+    skips where the host does not allow real-time scheduling."""
+    import os
+
+    result: dict = {}
+
+    def run() -> None:
+        try:
+            os.sched_setscheduler(0, os.SCHED_RR, os.sched_param(priority))
+        except (PermissionError, AttributeError):
+            result["skip"] = True
+            return
+        result["value"] = body()
+
+    t = threading.Thread(target=run)
+    t.start()
+    t.join()
+    if result.get("skip"):
+        pytest.skip("real-time scheduling is not allowed here")
+    return result["value"]
+
+
+def test_the_maker_runs_one_real_time_priority_below_a_real_time_loop() -> None:
+    """At the loop's own round-robin priority the maker, awake, kept a core for a whole
+    100 ms slice while the loop waited for one."""
+    import os
+
+    def items() -> Iterator[tuple[int, int]]:
+        yield os.sched_getscheduler(0), os.sched_getparam(0).sched_priority
+
+    def loop() -> tuple[list[tuple[int, int]], int]:
+        made = list(_made_ahead(items(), depth=2))
+        return made, os.sched_getparam(0).sched_priority
+
+    made, loop_priority = _in_thread_at_rr(10, loop)
+    assert made == [(os.SCHED_RR, 9)]
+    assert loop_priority == 10  # the loop's thread keeps its own

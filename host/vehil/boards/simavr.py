@@ -34,6 +34,7 @@ class SimavrOptions:
     # UART0 on a loopback TCP socket instead of a pty: a pty hands its bytes on through a
     # kernel worker thread, which a loaded host keeps waiting (round trips' tails).
     tcp: bool = False
+    timing: Path | None = None  # with realtime: the bridge's timing log (sim/README.md)
 
     def bridge_options(self) -> list[str]:
         args = ["--realtime"] if self.realtime else []
@@ -41,6 +42,8 @@ class SimavrOptions:
             args += ["--tcp", "0"]
         if self.vcd:
             args += ["--vcd", str(self.vcd)]
+        if self.timing:
+            args += ["--timing", str(self.timing)]
         if self.gdb_port is not None:
             args += ["--gdb", str(self.gdb_port)]
         return args + list(self.profile)
