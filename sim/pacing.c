@@ -6,6 +6,7 @@
 #include <sched.h>
 #include <string.h>
 #include <time.h>
+#include <unistd.h>
 
 uint64_t mono_ns(void)
 {
@@ -45,6 +46,7 @@ avr_cycle_count_t rt_base_cycle;
  * arrives, or something needs attention.  Returns early in the last two
  * cases.  (Runs on the sim thread; the reader thread signals rt_cond.) */
 static void timing_caught_up(void);
+static void timing_steal(uint64_t now);
 static void rt_wait(uint64_t deadline)
 {
 	if (g_timing)
@@ -110,6 +112,8 @@ void sleep_realtime(avr_t *avr, avr_cycle_count_t howlong)
 void rt_pace(avr_t *avr)
 {
 	uint64_t sim = sim_ns(avr), now = mono_ns();
+	if (g_timing)
+		timing_steal(now);
 	if (sim > now)
 		rt_wait(sim);
 	else if (g_timing)
@@ -149,6 +153,46 @@ void timing_behind(uint64_t by)
 		behind_from = now;
 	if (by > behind_most)
 		behind_most = by;
+}
+
+/* CPU time the hypervisor gave to others while this machine's CPUs wanted it (steal,
+ * per CPU, from /proc/stat): read every 10 ms, logged when it grew. A CPU taken away
+ * stops whatever threads its run queue holds, simulated time's and the host's alike. */
+#define STEAL_CPUS 64
+static void timing_steal(uint64_t now)
+{
+	static uint64_t next_ns;
+	static unsigned long long last[STEAL_CPUS];
+	static int have_last;
+	if (now < next_ns)
+		return;
+	next_ns = now + 10000000u;
+	FILE *f = fopen("/proc/stat", "r");
+	if (!f)
+		return;
+	unsigned long long cur[STEAL_CPUS] = { 0 };
+	int n = 0;
+	char line[512];
+	while (n < STEAL_CPUS && fgets(line, sizeof line, f)) {	/* cpuN lines; not "cpu ", their sum */
+		unsigned long long v[8];
+		int cpu;
+		if (line[3] != ' ' && sscanf(line, "cpu%d %llu %llu %llu %llu %llu %llu %llu %llu", &cpu, &v[0], &v[1],
+				&v[2], &v[3], &v[4], &v[5], &v[6], &v[7]) == 9)
+			cur[n++] = v[7];
+	}
+	fclose(f);
+	long tick = sysconf(_SC_CLK_TCK);
+	int grew = 0;
+	for (int i = 0; i < n; i++)
+		grew |= have_last && cur[i] > last[i];
+	if (grew) {
+		fprintf(g_timing, "steal %llu", (unsigned long long)now);
+		for (int i = 0; i < n; i++)
+			fprintf(g_timing, " %llu", (cur[i] - last[i]) * 1000ull / (unsigned long long)tick);
+		fputc('\n', g_timing);
+	}
+	memcpy(last, cur, sizeof last);
+	have_last = 1;
 }
 
 static void timing_caught_up(void)

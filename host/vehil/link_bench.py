@@ -11,7 +11,11 @@ loop are host-clock figures on `simavr-realtime`, which is held to the chip's ti
 while the host keeps up with it: the bench measures how fast simavr runs free, and
 prints the host's load average with each wall-clock figure. It runs those parts ahead of
 the host's other work where the host allows it (real-time round-robin scheduling, else
-niceness -10), as a dedicated HIL host would.
+niceness -10), as a dedicated HIL host would; simavr-realtime then runs one real-time
+priority above it (sim/README.md). For each stretch of late samples in the loop it prints
+where the first one's time went, from the bridge's timing log (vehil.timing_log): sent
+late by the host, answered late by the board, or read late; and the CPU time the
+hypervisor gave to others meanwhile (steal).
 """
 
 from __future__ import annotations
@@ -35,6 +39,8 @@ from vehil.boards import BoardOptions, SimavrOptions, make_board, open_board
 from vehil.link import Link
 from vehil.ping import run_ping
 from vehil.protocol import frame as framing
+from vehil.protocol.schema import SCHEMA
+from vehil.timing_log import LateStretch, TimingLog
 from vehil.vcd import frames, uart_bytes
 
 F_CPU = 16_000_000
@@ -48,6 +54,9 @@ STEP_SCENARIOS = ("braking/manf-hard-stop-fixed", "stlqf/heavy-rolling-fixed")
 STEP_SAMPLES = 1000
 # A 100 Hz stop-and-wait loop through the 1 Mbaud link, in real time: no sample late.
 LOOP_SCENARIO = "stlqf/heavy-rolling-fixed"  # STLQF FIXED, 60 s at 100 Hz
+# A late stretch during which a CPU was given to others this long (steal) is the host's.
+STOLEN_MS = 10
+LATE_STRETCHES_SHOWN = 12
 
 
 def _set_baud(link: Link, baud: int) -> None:
@@ -167,8 +176,19 @@ def realtime_loop() -> dict[str, Any]:
     sample was due), round trips and the step's cycles."""
     sc = scenario.load(LOOP_SCENARIO)
     load = _load()
-    r = runner.run(sc, "simavr-realtime", realtime=True, console=Console(quiet=True))
+    with tempfile.TemporaryDirectory() as tmp:
+        log_path = Path(tmp) / "timing.log"
+        board = make_board("simavr-realtime", BoardOptions(), SimavrOptions(timing=log_path))
+        r = runner.run(sc, board, realtime=True, console=Console(quiet=True))
+        log = TimingLog.read(log_path)
     rtt = r.rtt_s * 1e3 if r.done else np.zeros(1)
+    stretches = None
+    if r.done:
+        sample = SCHEMA.messages["SAMPLE"]
+        inputs = sc.estimator.encode_inputs(np.zeros(len(sc.estimator.inputs)), sc.mode)
+        request = len(framing.encode(sample.type, 1, sample.pack(index=0, inputs=inputs)))
+        stretches = log.late_stretches(request, r.late, r.rtt_s, sc.sample_time)
+    stolen = [s for s in stretches or [] if max(s.steal_ms, default=0) >= STOLEN_MS]
     return {
         "scenario": LOOP_SCENARIO,
         "baud": int(r.info.get("baud", 0)),
@@ -181,6 +201,11 @@ def realtime_loop() -> dict[str, Any]:
         "rtt_p99_ms": float(np.percentile(rtt, 99)),
         "rtt_max_ms": float(np.max(rtt)),
         "step_max_cycles": int(np.max(r.cycles)) if r.done else None,
+        "late_stretches": [dataclasses.asdict(s) for s in stretches]
+        if stretches is not None
+        else None,
+        "late_with_steal": sum(s.samples for s in stolen),
+        "steal_ms": [int(x) for x in log.steal[:, 1:].sum(axis=0)] if len(log.steal) else [],
         "sample_time_ms": sc.sample_time * 1e3,
         "load_before": load,
         "load_after": _load(),
@@ -317,6 +342,23 @@ def report(f: dict[str, Any]) -> str:
             f"step max {q['step_max_cycles']:,} cycles (host load {q['load_before']:.2f} before, "
             f"{q['load_after']:.2f} after)" + (f"; {q['error']}" if q["error"] else "")
         )
+        if q["steal_ms"]:
+            lines.append(
+                "  the hypervisor gave this machine's CPUs to others for "
+                + "/".join(str(x) for x in q["steal_ms"])
+                + f" ms (steal, CPU {'/'.join(str(i) for i in range(len(q['steal_ms'])))}) "
+                f"during the run; {q['late_with_steal']} of the late samples came in stretches "
+                f"with {STOLEN_MS} ms of it or more"
+            )
+        if q["late"] and q["late_stretches"] is None:
+            lines.append("  (the bridge's timing log did not hold one request a sample)")
+        stretches = q["late_stretches"] or []
+        for s in stretches[:LATE_STRETCHES_SHOWN]:
+            lines.append(
+                "  late " + LateStretch(**{**s, "steal_ms": tuple(s["steal_ms"])}).describe()
+            )
+        if len(stretches) > LATE_STRETCHES_SHOWN:
+            lines.append(f"  ... {len(stretches) - LATE_STRETCHES_SHOWN} more stretches (--json)")
     return "\n".join(lines)
 
 
