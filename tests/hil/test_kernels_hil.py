@@ -24,7 +24,7 @@ def project_built() -> subprocess.CompletedProcess:
     return built
 
 
-def test_bfp24_dot_on_simavr_gives_the_c_twins_bits(project_built) -> None:  # noqa: ANN001
+def test_bfp24_dot_and_rounding_on_simavr_give_the_c_twins_bits(project_built) -> None:  # noqa: ANN001
     done = project_pytest("check_kernels.py", PROJECT, CACHE)
     assert done.returncode == 0, done.stdout + done.stderr
-    assert "2 passed" in done.stdout
+    assert "3 passed" in done.stdout

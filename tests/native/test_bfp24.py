@@ -70,8 +70,8 @@ def _lib(native_lib):  # noqa: ANN001, ANN202
     lib.bfp24_from_f32.restype = ctypes.c_int16
     lib.bfp24_dot_c.argtypes = [ctypes.POINTER(ctypes.c_uint32)] * 2 + [ctypes.c_uint8]
     lib.bfp24_dot_c.restype = ctypes.c_int64
-    lib.bfp24_to_f32.argtypes = [ctypes.c_int64, ctypes.c_int16]
-    lib.bfp24_to_f32.restype = ctypes.c_float
+    lib.bfp24_to_f32_c.argtypes = [ctypes.c_int64, ctypes.c_int16]
+    lib.bfp24_to_f32_c.restype = ctypes.c_float
     return lib
 
 
@@ -118,13 +118,13 @@ def test_the_dot_product_is_exact(native_lib, pairs) -> None:  # noqa: ANN001
 @settings(max_examples=2000, deadline=None)
 @given(st.integers(-(2**62), 2**62), st.integers(-330, 250))
 def test_rounding_once_is_to_nearest_even(native_lib, s, e) -> None:  # noqa: ANN001
-    got = _lib(native_lib).bfp24_to_f32(s, e)
+    got = _lib(native_lib).bfp24_to_f32_c(s, e)
     want = round_f32(s, e)
     assert got == want and math.copysign(1, got) == math.copysign(1, want), (s, e)
 
 
 def test_rounding_at_the_edges(native_lib) -> None:  # noqa: ANN001
-    f = _lib(native_lib).bfp24_to_f32
+    f = _lib(native_lib).bfp24_to_f32_c
     cases = [
         (2**24 + 1, 0),  # a tie, to even: 2^24
         (2**24 + 3, 0),  # a tie, to even: 2^24 + 4

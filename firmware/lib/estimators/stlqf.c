@@ -4,6 +4,7 @@
 #include <string.h>
 
 #include "fixmath/fixmath.h"
+#include "linalg/bfp24.h"
 #include "linalg/chol_f32.h"
 #include "linalg/chol_q15.h"
 #include "proto/wire.h"
@@ -113,13 +114,14 @@ static void configure_f32(stlqf_f32_t *f, const longit_t *model, const uint8_t *
         col[0][j] = ((float)tau(j) + f->c1) * model->g_cos;
         col[1][j] = model->g_cos;
     }
-    band_apply(f->band, col[0], f->x_g[0]);
-    band_apply(f->band, col[1], f->x_g[1]);
-    memset(f->g_gg, 0, sizeof f->g_gg);
-    for (uint8_t i = 0; i < STLQF_ROWS; i++) {
-        f->g_gg[0] += f->x_g[0][i] * f->x_g[0][i];
-        f->g_gg[1] += f->x_g[1][i] * f->x_g[0][i];
-        f->g_gg[2] += f->x_g[1][i] * f->x_g[1][i];
+    for (uint8_t c = 0; c < 2u; c++) {
+        float x[STLQF_ROWS];
+        band_apply(f->band, col[c], x);
+        f->e_g[c] = bfp24_from_f32(x, STLQF_ROWS, f->x_g[c]);
+    }
+    for (uint8_t k = 0; k < 3u; k++) { /* (4, 4), (5, 4), (5, 5) */
+        uint8_t a = k == 0u ? 0u : 1u, b = k == 2u ? 1u : 0u;
+        f->g_gg[k] = bfp24_dot_f32(f->x_g[a], f->e_g[a], f->x_g[b], f->e_g[b], STLQF_ROWS);
     }
 }
 
@@ -141,23 +143,10 @@ static void filter_f32(const stlqf_f32_t *f, const float *x, const float h[2][3]
     }
 }
 
-/* The window's θ: G = Xᵀ X and U = Xᵀ R ζ, Jacobi-scaled, (G_s + μ I) y = U_s + μ y_prior. */
-typedef char stlqf_rows_are_nine[STLQF_ROWS == 9u ? 1 : -1]; /* dot() is written out */
-
-static float dot(const float *a, const float *b)
-{
-    /* Written out: the AVR spends a tenth of each multiply-add on a loop's upkeep. */
-    float s = a[0] * b[0];
-    s = fmaf(a[1], b[1], s);
-    s = fmaf(a[2], b[2], s);
-    s = fmaf(a[3], b[3], s);
-    s = fmaf(a[4], b[4], s);
-    s = fmaf(a[5], b[5], s);
-    s = fmaf(a[6], b[6], s);
-    s = fmaf(a[7], b[7], s);
-    return fmaf(a[8], b[8], s);
-}
-
+/* The window's θ: G = Xᵀ X and U = Xᵀ R ζ, Jacobi-scaled, (G_s + μ I) y = U_s + μ y_prior.
+ * X's columns are blocks with 24-bit mantissas (linalg/bfp24), so each Gram sum is exact
+ * in integers and rounded once: ~76 cycles a product on the AVR, where avr-libc's fmaf
+ * took ~220 (docs/estimators/stlqf.md, "Cost"). */
 static uint8_t solve_f32(stlqf_state_t *s, float *log_cond)
 {
     stlqf_f32_t *f = &s->u.f32;
@@ -180,19 +169,26 @@ static uint8_t solve_f32(stlqf_state_t *s, float *log_cond)
         phi[3][j] = row[1];
         phi[4][j] = fmaf(-prior[3], row[1], fmaf(-prior[1], row[0], row[4] - g_term));
     }
+    uint32_t m[5][STLQF_ROWS];
+    int16_t e[6 + 1];
     for (uint8_t c = 0; c < 5u; c++) {
         band_apply(f->band, phi[c], x[c]);
+        e[c < 4u ? c : 6u] = bfp24_from_f32(x[c], STLQF_ROWS, m[c]);
     }
-    const float *col[6] = {x[0], x[1], x[2], x[3], f->x_g[0], f->x_g[1]}; /* θ's */
+    e[4] = f->e_g[0];
+    e[5] = f->e_g[1];
+    const uint32_t *col[6] = {m[0], m[1], m[2], m[3], f->x_g[0], f->x_g[1]}; /* θ's */
     float g[36], rhs[6];
     for (uint8_t i = 0; i < 6u; i++) {
         uint8_t a = unknown(i);
         for (uint8_t j = 0; j <= i; j++) {
             uint8_t b = unknown(j);
             /* g/cos ε's own entries are constant: (4, 4), (5, 4), (5, 5) */
-            g[i * 6u + j] = a >= 4u && b >= 4u ? f->g_gg[a + b - 8u] : dot(col[a], col[b]);
+            g[i * 6u + j] = a >= 4u && b >= 4u
+                                ? f->g_gg[a + b - 8u]
+                                : bfp24_dot_f32(col[a], e[a], col[b], e[b], STLQF_ROWS);
         }
-        rhs[i] = dot(col[a], x[4]);
+        rhs[i] = bfp24_dot_f32(col[a], e[a], m[4], e[6], STLQF_ROWS);
     }
     /* (D G D + μ I) y = D U + μ y_prior with D = diag(G)^-1/2 and θ = D y is, multiplied
      * out, (G + μ diag G) θ = U + μ diag(G) θ_prior: the Jacobi-scaled system without

@@ -3,6 +3,13 @@
 #include <math.h>
 #include <string.h>
 
+/* Both builds are little-endian (the AVR and the hosts the native board runs on): the
+ * bytes of an int64 are read in memory, where the AVR calls a library routine for each
+ * 64-bit shift. Everything else works a byte at a time, which the AVR does in one
+ * instruction, where its 32-bit shifts by a count known only at run time loop a bit at
+ * a time. */
+typedef char bfp24_little_endian[__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__ ? 1 : -1];
+
 static uint32_t bits_of(float x)
 {
     uint32_t b;
@@ -10,10 +17,10 @@ static uint32_t bits_of(float x)
     return b;
 }
 
-/* The biased exponent a subnormal or a zero is read at (a zero's mantissa is 0). */
+/* The biased exponent, a subnormal's or a zero's read as 1 (a zero's mantissa is 0). */
 static uint8_t exponent(uint32_t bits)
 {
-    uint8_t ex = (uint8_t)(bits >> 23);
+    uint8_t ex = (uint8_t)((uint8_t)((uint8_t)(bits >> 24) << 1) | ((uint8_t)(bits >> 16) >> 7));
     return ex != 0u ? ex : 1u;
 }
 
@@ -21,7 +28,7 @@ int16_t bfp24_from_f32(const float *x, uint8_t n, uint32_t *m)
 {
     uint8_t top = 1;
     for (uint8_t i = 0; i < n; i++) {
-        uint8_t ex = exponent(bits_of(x[i]) & 0x7FFFFFFFul);
+        uint8_t ex = exponent(bits_of(x[i]));
         if (ex == 0xFFu) {
             return BFP24_NOT_FINITE;
         }
@@ -29,14 +36,21 @@ int16_t bfp24_from_f32(const float *x, uint8_t n, uint32_t *m)
     }
     for (uint8_t i = 0; i < n; i++) {
         uint32_t b = bits_of(x[i]);
-        uint8_t down = (uint8_t)(top - exponent(b & 0x7FFFFFFFul));
-        uint32_t mag = (b & 0x7FFFFFul) | ((b & 0x7F800000ul) != 0u ? 0x800000ul : 0u);
-        /* by whole bytes, then bits: a shift by a count known only at run time loops a
-         * bit at a time on the AVR */
-        for (; down >= 8u && mag != 0u; down = (uint8_t)(down - 8u)) {
-            mag >>= 8;
+        uint8_t ex = exponent(b), down = (uint8_t)(top - ex);
+        uint8_t m0 = (uint8_t)b, m1 = (uint8_t)(b >> 8), m2 = (uint8_t)(b >> 16);
+        m2 = (uint8_t)((m2 & 0x7Fu) | ((b & 0x7F800000ul) != 0u ? 0x80u : 0u));
+        uint32_t mag = 0;
+        if (down < 24u) {
+            if (down >= 16u) { /* by whole bytes, then bits */
+                m0 = m2;
+                m1 = m2 = 0;
+            } else if (down >= 8u) {
+                m0 = m1;
+                m1 = m2;
+                m2 = 0;
+            }
+            mag = ((uint32_t)m2 << 16 | (uint16_t)((uint16_t)m1 << 8 | m0)) >> (down & 7u);
         }
-        mag = down >= 8u ? 0u : mag >> down;
         m[i] = mag | (b & BFP24_SIGN);
     }
     return (int16_t)(top - 150);
@@ -52,42 +66,36 @@ int64_t bfp24_dot_c(const uint32_t *a, const uint32_t *b, uint8_t n)
     return s;
 }
 
-float bfp24_to_f32(int64_t s, int16_t e)
+float bfp24_to_f32_c(int64_t s, int16_t e)
 {
-    uint32_t sign = 0;
-    uint64_t mag = (uint64_t)s;
-    if (s < 0) {
-        sign = BFP24_SIGN;
-        mag = (uint64_t)0 - mag;
-    }
-    /* the magnitude's bytes, least significant first (both builds are little-endian;
-     * on the AVR a 64-bit shift is a library call), by[0] a zero byte below them; t the
-     * highest non-zero one */
-    uint8_t by[9];
-    by[0] = 0;
-    memcpy(by + 1, &mag, sizeof mag);
-    int8_t t = -1;
-    for (uint8_t i = 1; i < 9u; i++) {
-        t = by[i] != 0u ? (int8_t)i : t;
-    }
-    if (t < 0) {
-        return 0.0f;
-    }
-    /* w: the four bytes from the top (zeros past the lowest), then the next byte and a
-     * sticky for the rest */
-    uint32_t w = 0;
-    uint8_t below = 0, sticky = 0;
-    for (int8_t i = t; i > t - 4; i--) {
-        w = (w << 8) | (i >= 0 ? by[i] : 0u);
-    }
-    if (t >= 4) {
-        below = by[t - 4];
-        for (int8_t i = 0; i < t - 4; i++) {
-            sticky |= by[i];
+    /* the magnitude's bytes, least significant first, after four zero bytes */
+    uint8_t by[12] = {0};
+    memcpy(by + 4, &s, sizeof s);
+    uint8_t sign = by[11] & 0x80u;
+    if (sign != 0u) {
+        uint8_t carry = 1;
+        for (uint8_t i = 4; i < 12u; i++) {
+            uint16_t v = (uint16_t)((uint8_t)~by[i] + carry);
+            by[i] = (uint8_t)v;
+            carry = (uint8_t)(v >> 8);
         }
     }
-    int16_t ex = (int16_t)(e + 8 * (t - 4)); /* value = (w + below 2^-8 + ...) 2^ex */
-    while ((w & 0x80000000ul) == 0u) { /* at most 7 bits: the top byte is not zero */
+    uint8_t t = 11; /* the highest non-zero byte */
+    while (by[t] == 0u) {
+        if (--t < 4u) {
+            return 0.0f;
+        }
+    }
+    /* w: the four bytes from the top, then the next byte and a sticky for the rest */
+    uint32_t w = (uint32_t)by[t] << 24 | (uint32_t)by[t - 1u] << 16 |
+                 (uint16_t)((uint16_t)by[t - 2u] << 8 | by[t - 3u]);
+    uint8_t below = by[t - 4u], sticky = 0;
+    for (uint8_t i = 4; i + 4u < t; i++) {
+        sticky |= by[i];
+    }
+    int16_t ex = (int16_t)(e + 8 * ((int16_t)t - 7)); /* value = (w + below 2^-8 + ...) 2^ex */
+    while ((by[t] & 0x80u) == 0u) { /* at most 7 bits: the top byte is not zero */
+        by[t] = (uint8_t)(by[t] << 1);
         w = (w << 1) | (below >> 7);
         below = (uint8_t)(below << 1);
         ex--;
@@ -104,14 +112,18 @@ float bfp24_to_f32(int64_t s, int16_t e)
         }
     }
     int16_t biased = (int16_t)(ex + 8 + 150); /* mant in [2^23, 2^24) times 2^(ex + 8) */
-    uint32_t out;
+    uint8_t top = sign != 0u ? 0x80u : 0u, next = 0;
     if (biased >= 255) {
-        out = sign | 0x7F800000ul;
+        top |= 0x7Fu;
+        next = 0x80u;
+        mant = 0;
     } else if (biased <= 0) {
-        out = sign;
-    } else {
-        out = sign | ((uint32_t)biased << 23) | (mant & 0x7FFFFFul);
+        mant = 0;
+    } else { /* by bytes: the AVR shifts 32 bits by 23 a bit at a time */
+        top |= (uint8_t)((uint8_t)biased >> 1);
+        next = (uint8_t)((uint8_t)((uint8_t)biased << 7) | ((uint8_t)(mant >> 16) & 0x7Fu));
     }
+    uint32_t out = (uint32_t)((uint16_t)top << 8 | next) << 16 | (uint16_t)mant;
     float f;
     memcpy(&f, &out, sizeof f);
     return f;
