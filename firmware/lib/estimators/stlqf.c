@@ -313,6 +313,25 @@ static int32_t round_down64(int64_t x, uint8_t k)
     return (y >> 1) + (y & 1);
 }
 
+/* out = (in + half) 2^-(8 bytes + bits) for m = 2^(8 - bits), 1 <= bits <= 8, each
+ * result within int16 (normalize's last step). */
+static inline __attribute__((always_inline)) void shift_entries(const int32_t *in, int16_t *out,
+                                                                uint8_t n, int32_t half,
+                                                                uint8_t bytes, uint8_t m)
+{
+    for (uint8_t i = 0; i < n; i++) { /* |in| < 2^30 */
+        int32_t v = in[i] + half;
+        for (uint8_t b = 0; b < bytes; b++) {
+            v >>= 8;
+        }
+        /* v >> bits fits int16, so v m 2^-8 = (v >> 8) m + (v's low byte) m 2^-8 does
+         * too, and its low 16 bits are the result */
+        uint16_t hi = (uint16_t)(int16_t)(v >> 8);
+        uint8_t lo = (uint8_t)v;
+        out[i] = (int16_t)(uint16_t)(hi * m + (uint16_t)((uint16_t)lo * m >> 8));
+    }
+}
+
 /* in[0..n) · 2^-k (rounded half up) as int16 with |out| <= limit (14 bits) and as many
  * bits as that allows; returns k (0 for zeros). int32: the AVR's int64 shifts cost a
  * call each; the shift split into whole bytes and bits once, not per entry. */
@@ -346,16 +365,10 @@ static int8_t normalize(const int32_t *in, int16_t *out, uint8_t n, int32_t limi
      * count known only at run time loops a bit at a time on the AVR. */
     uint8_t bytes = (uint8_t)((uint8_t)(k - 1) >> 3);
     uint8_t m = (uint8_t)(1u << (7u - ((uint8_t)(k - 1) & 7u))); /* 2^(8 - bits) */
-    for (uint8_t i = 0; i < n; i++) { /* |in| < 2^30 */
-        int32_t v = in[i] + half;
-        for (uint8_t b = 0; b < bytes; b++) {
-            v >>= 8;
-        }
-        /* v >> bits fits int16, so v m 2^-8 = (v >> 8) m + (v's low byte) m 2^-8 does
-         * too, and its low 16 bits are the result */
-        uint16_t hi = (uint16_t)(int16_t)(v >> 8);
-        uint8_t lo = (uint8_t)v;
-        out[i] = (int16_t)(uint16_t)(hi * m + (uint16_t)((uint16_t)lo * m >> 8));
+    if (bytes == 1u) { /* the usual k (9 to 16), its byte shift a constant */
+        shift_entries(in, out, n, half, 1u, m);
+    } else {
+        shift_entries(in, out, n, half, bytes, m);
     }
     return k;
 }
