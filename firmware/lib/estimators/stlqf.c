@@ -623,24 +623,12 @@ static uint8_t solve_q(stlqf_state_t *s, int32_t *log_cond)
         int32_t step = scale_pow2(rhs[i], (int16_t)(e_res - e[a] + THETA_Q - DELTA_Q), &st);
         q->theta[a] = fx_add(prior[a], step, &st);
     }
-    /* The condition estimate of the Jacobi-scaled matrix: its pivots are L_ii² / G_ii. The
-     * log2 of one is within [E - 2, E + 1], E = 2 bits(L_ii) - bits(G_ii) from the bit
-     * lengths, so only a pivot whose E is within 3 of the least or the largest can be an
-     * extreme and needs its two logarithms. */
-    int8_t rough[6], least = INT8_MAX, most = INT8_MIN;
-    for (uint8_t i = 0; i < 6u; i++) {
-        rough[i] = (int8_t)(2 * longit_bit_length((uint32_t)l[i * 7u]) -
-                            longit_bit_length((uint32_t)scale[i]));
-        least = rough[i] < least ? rough[i] : least;
-        most = rough[i] > most ? rough[i] : most;
-    }
+    /* The condition estimate of the Jacobi-scaled matrix: its pivots are L_ii² / G_ii. */
     int32_t lo = INT32_MAX, hi = INT32_MIN;
     for (uint8_t i = 0; i < 6u; i++) {
-        if (rough[i] <= least + 3 || rough[i] >= most - 3) {
-            int32_t pivot = 2 * fx_log2_q24(l[i * 7u], 15) - fx_log2_q24(scale[i], 30);
-            lo = pivot < lo ? pivot : lo;
-            hi = pivot > hi ? pivot : hi;
-        }
+        int32_t pivot = 2 * fx_log2_q24(l[i * 7u], 15) - fx_log2_q24(scale[i], 30);
+        lo = pivot < lo ? pivot : lo;
+        hi = pivot > hi ? pivot : hi;
     }
     *log_cond = fx_mul_shr(hi - lo, 323228497 /* log10 2, Q30 */, 30, &st);
     /* The prior's share of m̂ (docs/estimators/stlqf.md), at most 1: μ G_mm / L_mm², the

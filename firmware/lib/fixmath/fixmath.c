@@ -557,8 +557,13 @@ int32_t fx_log2_q24(int32_t x, uint8_t q)
      * few bit shifts, where a 32-bit shift by 27 or 17 is a loop on the AVR. */
     uint16_t h = (uint16_t)(m >> 16);
     uint8_t idx = (uint8_t)(h >> 11) & 15u;
-    uint16_t frac = (h >> 1) & 0x3ffu;
+    uint16_t frac = (uint16_t)(h << 5) & 0xffc0u; /* bits 10..1 of h, times 2^6 */
     int32_t lo = rom_i32(ROM_AT(log2_table, idx)), hi = rom_i32(ROM_AT(log2_table, idx + 1u));
-    uint32_t step = ((uint32_t)(hi - lo) * frac + (1u << 9)) >> 10; /* < 2^21 · 2^10 */
+    /* (hi - lo) frac 2^-16 rounded half up, hi - lo < 2^21 split at bit 16: two 16 × 16
+     * products inline and a two-byte shift, where a 32 × 16 product was a call and the
+     * shift by 10 a loop */
+    uint32_t diff = (uint32_t)(hi - lo);
+    uint32_t low = fx_umul16x16((uint16_t)diff, frac) + 0x8000u;
+    uint32_t step = fx_umul16x16((uint16_t)(diff >> 16), frac) + (low >> 16);
     return (int32_t)((uint32_t)(uint8_t)(top - (int8_t)q) << 24) + lo + (int32_t)step;
 }
