@@ -104,6 +104,8 @@ extern avr_cycle_count_t out_last_cycle;
 extern avr_cycle_count_t in_last_cycle;
 ssize_t ring_read(void);
 void *reader_thread(void *arg);
+extern int g_sim_reads;
+void sim_read_input(void);
 void out_flush(void);
 void on_uart_output(avr_irq_t *irq, uint32_t value, void *param);
 void on_uart_xon(avr_irq_t *irq, uint32_t value, void *param);

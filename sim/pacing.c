@@ -3,6 +3,7 @@
 #include "bridge.h"
 
 #include <errno.h>
+#include <poll.h>
 #include <sched.h>
 #include <string.h>
 #include <time.h>
@@ -42,15 +43,29 @@ void wake_paced(void)
 uint64_t rt_base_ns;		/* wall clock at rt_base_cycle */
 avr_cycle_count_t rt_base_cycle;
 
-/* Waits until the monotonic clock reaches deadline, or input for the UART
- * arrives, or something needs attention.  Returns early in the last two
- * cases.  (Runs on the sim thread; the reader thread signals rt_cond.) */
 static void timing_caught_up(void);
 static void timing_steal(uint64_t now);
-static void rt_wait(uint64_t deadline)
+
+/* The waits below (on the sim thread) last until the monotonic clock reaches deadline,
+ * or input for the UART arrives, or something needs attention.  This one, when the sim
+ * thread reads the client itself (g_sim_reads), waits on the client's fd. */
+static void poll_wait(uint64_t deadline)
 {
-	if (g_timing)
-		timing_caught_up();
+	while (!input_wakes() && !atomic_load(&g_attention)) {
+		uint64_t now = mono_ns();
+		if (now >= deadline)
+			return;
+		struct timespec ts = { (time_t)((deadline - now) / 1000000000u),
+			(long)((deadline - now) % 1000000000u) };
+		int room = atomic_load(&rx_head) - atomic_load(&rx_tail) < RX_RING_SIZE;
+		struct pollfd p = { .fd = g_fd, .events = room ? POLLIN : 0 };
+		if (ppoll(&p, 1, &ts, NULL) > 0 && room)
+			sim_read_input();
+	}
+}
+
+static void cond_wait(uint64_t deadline)
+{
 	struct timespec ts = { (time_t)(deadline / 1000000000u), (long)(deadline % 1000000000u) };
 	pthread_mutex_lock(&rt_lock);
 	while (!input_wakes() && !atomic_load(&g_attention)) {
@@ -58,6 +73,16 @@ static void rt_wait(uint64_t deadline)
 			break;
 	}
 	pthread_mutex_unlock(&rt_lock);
+}
+
+static void rt_wait(uint64_t deadline)
+{
+	if (g_timing)
+		timing_caught_up();
+	if (g_sim_reads)
+		poll_wait(deadline);
+	else
+		cond_wait(deadline);	/* the reader thread signals rt_cond */
 	if (g_timing) {
 		uint64_t now = mono_ns();
 		if (now > deadline + 200000)
@@ -67,7 +92,7 @@ static void rt_wait(uint64_t deadline)
 }
 
 /* Under a real-time scheduling policy, inherited from the host that started us, the
- * bridge's threads (this one and the reader, started later) take one priority above
+ * bridge's threads (this one and any started later) take one priority above
  * the host's: simulated time, like a chip's clock, must not wait while the host's own
  * threads keep both cores busy at the same priority for a whole round-robin slice. */
 void above_the_host(void)
@@ -111,6 +136,8 @@ void sleep_realtime(avr_t *avr, avr_cycle_count_t howlong)
 /* Realtime, CPU running: never let simulated time get ahead of wall time. */
 void rt_pace(avr_t *avr)
 {
+	if (g_sim_reads)
+		sim_read_input();
 	uint64_t sim = sim_ns(avr), now = mono_ns();
 	if (g_timing)
 		timing_steal(now);

@@ -337,7 +337,9 @@ int main(int argc, char **argv)
 	pthread_condattr_setclock(&ca, CLOCK_MONOTONIC);
 	pthread_cond_init(&rt_cond, &ca);
 	pthread_t th;
-	start_reader(&th);
+	g_sim_reads = opt.realtime && !opt.bootloader;
+	if (!g_sim_reads)
+		start_reader(&th);
 
 	/* sim loop */
 	const avr_cycle_count_t period = avr->frequency / 10000 ? avr->frequency / 10000 : 1; /* 100 us */
