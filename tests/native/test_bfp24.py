@@ -155,3 +155,16 @@ def test_a_gram_entry_is_the_exact_dot_product_rounded_when_nothing_is_truncated
         s = sum(value(x) * value(y) for x, y in zip(ma, mb, strict=True))
         exact = sum(Fraction(x) * Fraction(y) for x, y in zip(a, b, strict=True))
         assert s * Fraction(2) ** (ea + eb) == exact
+
+
+@settings(max_examples=500, deadline=None)
+@given(st.lists(st.integers(-(2**63) + 1, 2**63 - 1), min_size=0, max_size=12))
+def test_sums_into_a_block_keep_24_bits_of_the_largest(native_lib, values) -> None:  # noqa: ANN001
+    f = native_lib.bfp24_from_i64_c
+    f.argtypes = [ctypes.POINTER(ctypes.c_int64), ctypes.c_uint8, ctypes.POINTER(ctypes.c_uint32)]
+    f.restype = ctypes.c_uint8
+    n = len(values)
+    out = (ctypes.c_uint32 * max(n, 1))()
+    k = f((ctypes.c_int64 * max(n, 1))(*values), n, out)
+    assert k == max(0, max([abs(v) for v in values] + [0]).bit_length() - 24)
+    assert list(out)[:n] == [(abs(v) >> k) | (SIGN if v < 0 else 0) for v in values]

@@ -83,25 +83,34 @@ static uint8_t band_factor(int32_t band[STLQF_ROWS][3], const int32_t a[3][3])
 
 /* ---- float32 ---- */
 
-/* X = R col for a column given per row. */
-static void band_apply(const float band[STLQF_ROWS][3], const float *col, float *out)
+/* X = R col as a block (linalg/bfp24): col as a block, each row's three products by R
+ * summed exactly in integers, the rows truncated to 24 bits at the largest. Returns X's
+ * exponent. */
+static int16_t weigh_f32(const stlqf_f32_t *f, const float *col, uint32_t *x)
 {
-    for (uint8_t i = 0; i + 2u < STLQF_ROWS; i++) {
-        out[i] = fmaf(band[i][2], col[i + 2u], fmaf(band[i][1], col[i + 1u], band[i][0] * col[i]));
+    uint32_t c[STLQF_ROWS];
+    int64_t wide[STLQF_ROWS];
+    int16_t e = bfp24_from_f32(col, STLQF_ROWS, c);
+    if (e == BFP24_NOT_FINITE) {
+        return e; /* every dot product with x is a NaN */
     }
-    out[STLQF_ROWS - 2u] = fmaf(band[STLQF_ROWS - 2u][1], col[STLQF_ROWS - 1u],
-                                band[STLQF_ROWS - 2u][0] * col[STLQF_ROWS - 2u]);
-    out[STLQF_ROWS - 1u] = band[STLQF_ROWS - 1u][0] * col[STLQF_ROWS - 1u];
+    for (uint8_t i = 0; i < STLQF_ROWS; i++) {
+        uint8_t left = (uint8_t)(STLQF_ROWS - i);
+        wide[i] = bfp24_dot(f->band[i], &c[i], left < 3u ? left : 3u);
+    }
+    return (int16_t)(e + f->e_band + bfp24_from_i64(wide, STLQF_ROWS, x));
 }
 
 static void configure_f32(stlqf_f32_t *f, const longit_t *model, const uint8_t *params,
                           const int32_t band[STLQF_ROWS][3])
 {
+    float r[STLQF_ROWS][3];
     for (uint8_t i = 0; i < STLQF_ROWS; i++) {
         for (uint8_t d = 0; d < 3u; d++) {
-            f->band[i][d] = (float)band[i][d] * (1.0f / 1048576.0f); /* Q20 */
+            r[i][d] = (float)band[i][d] * (1.0f / 1048576.0f); /* Q20 */
         }
     }
+    f->e_band = bfp24_from_f32(&r[0][0], STLQF_ROWS * 3u, &f->band[0][0]);
     float T = model->T;
     f->c1 = get_f32(params + 4u * P_CHI1) / T;
     f->c2 = get_f32(params + 4u * P_CHI2) / (T * T);
@@ -115,9 +124,7 @@ static void configure_f32(stlqf_f32_t *f, const longit_t *model, const uint8_t *
         col[1][j] = model->g_cos;
     }
     for (uint8_t c = 0; c < 2u; c++) {
-        float x[STLQF_ROWS];
-        band_apply(f->band, col[c], x);
-        f->e_g[c] = bfp24_from_f32(x, STLQF_ROWS, f->x_g[c]);
+        f->e_g[c] = weigh_f32(f, col[c], f->x_g[c]);
     }
     for (uint8_t k = 0; k < 3u; k++) { /* (4, 4), (5, 4), (5, 5) */
         uint8_t a = k == 0u ? 0u : 1u, b = k == 2u ? 1u : 0u;
@@ -159,7 +166,7 @@ static uint8_t solve_f32(stlqf_state_t *s, float *log_cond)
     /* Φ̃'s varying columns [τ v̇, v̇, τ q, q] and the residual against the prior,
      * ζ - Φ̃ θ_prior (where m v̇ cancels most of ζ, so its rounding is the residual's, not
      * ζ's), then X = R Φ̃ column by column. */
-    float phi[5][STLQF_ROWS], x[5][STLQF_ROWS];
+    float phi[5][STLQF_ROWS];
     float g_term = prior[5] * s->model.g_cos;
     for (uint8_t j = 0; j < STLQF_ROWS; j++) {
         const float *row = s->rows.f[slot(s, j)];
@@ -172,8 +179,7 @@ static uint8_t solve_f32(stlqf_state_t *s, float *log_cond)
     uint32_t m[5][STLQF_ROWS];
     int16_t e[6 + 1];
     for (uint8_t c = 0; c < 5u; c++) {
-        band_apply(f->band, phi[c], x[c]);
-        e[c < 4u ? c : 6u] = bfp24_from_f32(x[c], STLQF_ROWS, m[c]);
+        e[c < 4u ? c : 6u] = weigh_f32(f, phi[c], m[c]);
     }
     e[4] = f->e_g[0];
     e[5] = f->e_g[1];

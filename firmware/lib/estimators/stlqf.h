@@ -39,7 +39,8 @@
 typedef struct {
     float c1, c2; /* χ1/T, χ2/T² */
     float mu, mu_max, mu_min, held_max; /* μ: this window's, between mu_min and mu_max */
-    float band[STLQF_ROWS][3]; /* R(i, i + d) */
+    uint32_t band[STLQF_ROWS][3]; /* R(i, i + d) as a block (linalg/bfp24) */
+    int16_t e_band;               /* its exponent */
     uint32_t x_g[2][STLQF_ROWS]; /* X's columns of g/cos ε (constant: its filters are exact) */
     int16_t e_g[2];              /* as blocks (linalg/bfp24), their exponents */
     float g_gg[3];               /* their Gram entries */

@@ -56,6 +56,24 @@ int16_t bfp24_from_f32(const float *x, uint8_t n, uint32_t *m)
     return (int16_t)(top - 150);
 }
 
+uint8_t bfp24_from_i64_c(const int64_t *s, uint8_t n, uint32_t *m)
+{
+    uint64_t any = 0; /* the magnitudes' union: its top bit is the largest's */
+    for (uint8_t i = 0; i < n; i++) {
+        any |= s[i] < 0 ? (uint64_t)0 - (uint64_t)s[i] : (uint64_t)s[i];
+    }
+    uint8_t bits = 0;
+    for (; any != 0u; any >>= 1) {
+        bits++;
+    }
+    uint8_t k = bits > 24u ? (uint8_t)(bits - 24u) : 0u;
+    for (uint8_t i = 0; i < n; i++) {
+        uint64_t mag = s[i] < 0 ? (uint64_t)0 - (uint64_t)s[i] : (uint64_t)s[i];
+        m[i] = (uint32_t)(mag >> k) | (s[i] < 0 ? BFP24_SIGN : 0u);
+    }
+    return k;
+}
+
 int64_t bfp24_dot_c(const uint32_t *a, const uint32_t *b, uint8_t n)
 {
     int64_t s = 0;
