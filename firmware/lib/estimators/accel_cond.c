@@ -1,5 +1,7 @@
 #include "estimators/accel_cond.h"
 
+#include <stddef.h>
+
 #include "fixmath/fixmath.h"
 
 #define PI_F 3.14159265f
@@ -104,8 +106,31 @@ static int32_t biquad_q(const biquad_q_t *b, int32_t x, int32_t x1, int32_t x2, 
     return fx_add(y, fx_mul_f(y2, b->p2, s), s);
 }
 
-int32_t accel_cond_step_q(const accel_cond_q_t *c, accel_chan_q_t *ch, int32_t a,
-                          uint8_t *status)
+#if defined(__AVR__)
+/* accel_cond_avr.S reads the structs at these offsets */
+#define AT(type, field, at) typedef char at_##field[offsetof(type, field) == (at) ? 1 : -1]
+AT(accel_chan_q_t, x1, 0);
+AT(accel_chan_q_t, x2, 4);
+AT(accel_chan_q_t, l1, 8);
+AT(accel_chan_q_t, l2, 12);
+AT(accel_chan_q_t, h1, 16);
+AT(accel_chan_q_t, h2, 20);
+AT(accel_chan_q_t, dh, 24);
+AT(accel_chan_q_t, v, 28);
+AT(accel_chan_q_t, x, 32);
+AT(accel_cond_q_t, hp, 0);
+AT(accel_cond_q_t, lp, 6);
+AT(accel_cond_q_t, beta, 15);
+AT(accel_cond_q_t, gamma, 18);
+AT(hp_delta_q_t, c12, 3);
+AT(biquad_q_t, p1, 3);
+AT(biquad_q_t, p2, 6);
+AT(fx_factor_t, sh, 2);
+#undef AT
+#endif
+
+int32_t accel_cond_step_q_c(const accel_cond_q_t *c, accel_chan_q_t *ch, int32_t a,
+                            uint8_t *status)
 {
     const hp_delta_q_t *hp = &c->hp;
     int32_t d2 = fx_sub(fx_sub(a, ch->x1, status), fx_sub(ch->x1, ch->x2, status), status);

@@ -53,16 +53,22 @@ static uint8_t step_f32(eso_state_t *st, const uint8_t *in, uint8_t *out)
 
 /* -- fixed point --------------------------------------------------------- */
 
-/* One observer, Euler (eq. 12): z Q28/Q24/Q20, y Q28, acceleration input Q20. */
-FX_INLINE void observer_q(const eso_q_t *s, int32_t *z, int32_t y, int32_t acc, uint8_t *st)
+void eso_observer_q_c(const fx_factor_t *k, int32_t *z, int32_t y, uint8_t *st, int32_t acc)
 {
     int32_t e = fx_sub(y, z[0], st);
-    int32_t z0 = fx_add(fx_add(z[0], fx_mul_f(z[1], s->T, st), st), fx_mul_f(e, s->g1, st), st);
-    int32_t z1 = fx_add(fx_add(z[1], fx_mul_f(acc, s->T, st), st), fx_mul_f(e, s->g2, st), st);
-    z[2] = fx_add(z[2], fx_mul_f(e, s->g3, st), st);
-    z[0] = z0;
-    z[1] = z1;
+    int32_t z0 = fx_add(z[0], fx_mul_f(z[1], k[ESO_K_T], st), st);
+    int32_t z1 = fx_add(z[1], fx_mul_f(acc, k[ESO_K_T], st), st);
+    z[0] = fx_add(z0, fx_mul_f(e, k[ESO_K_G1], st), st);
+    z[1] = fx_add(z1, fx_mul_f(e, k[ESO_K_G2], st), st);
+    z[2] = fx_add(z[2], fx_mul_f(e, k[ESO_K_G3], st), st);
 }
+
+#if defined(__AVR__)
+#define observer_q eso_observer_q_avr
+typedef char eso_k_at[sizeof(fx_factor_t) == 3 ? 1 : -1]; /* eso_avr.S's offsets */
+#else
+#define observer_q eso_observer_q_c
+#endif
 
 __attribute__((flatten)) static uint8_t step_q(eso_state_t *st, const uint8_t *in, uint8_t *out)
 {
@@ -78,8 +84,8 @@ __attribute__((flatten)) static uint8_t step_q(eso_state_t *st, const uint8_t *i
         acc_s = fx_add(acc_s, fx_mul_f(du, m->inv_m_s, &status), &status);
         acc_us = fx_sub(acc_us, fx_mul_f(du, m->inv_m_us, &status), &status);
     }
-    observer_q(s, z, y_s, acc_s, &status);
-    observer_q(s, z + 3, y_us, acc_us, &status);
+    observer_q(s->k, z, y_s, &status, acc_s);
+    observer_q(s->k, z + 3, y_us, &status, acc_us);
     int32_t dx = fx_sub(z[0], z[3], &status), dv = fx_sub(z[1], z[4], &status);
     susp_est_q_t est = {z[0], z[1], z[3], z[4], z[2], z[5], 0};
     s->fnl = st->variant ? qcar_strut_nl_q(m, dx, dv, &status) : 0;
@@ -145,10 +151,10 @@ static uint8_t eso_configure(void *state, uint8_t mode, const uint8_t *params)
         if (bad != 0) {
             return (uint8_t)(N_OWN + bad);
         }
-        q->T = fx_factor(T, 4, &status);
-        q->g1 = fx_factor(f.g[0], 0, &status);
-        q->g2 = fx_factor(f.g[1], -4, &status);
-        q->g3 = fx_factor(f.g[2], -8, &status);
+        q->k[ESO_K_T] = fx_factor(T, 4, &status);
+        q->k[ESO_K_G1] = fx_factor(f.g[0], 0, &status);
+        q->k[ESO_K_G2] = fx_factor(f.g[1], -4, &status);
+        q->k[ESO_K_G3] = fx_factor(f.g[2], -8, &status);
     }
     eso_reset(st);
     return 0;

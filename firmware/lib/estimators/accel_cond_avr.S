@@ -1,0 +1,196 @@
+; accel_cond_step_q for the AVR build: one channel's fixed-point step (accel_cond.h), the same
+; operations in the same order as its C twin accel_cond_step_q_c (accel_cond.c), so the same
+; bits: eight products by factors (fixmath's fx_mul_f_avr) and the saturating adds, subtracts
+; and the rescale between them. Written out because in C the flattened ESO step kept almost
+; nothing in registers across the kernel's calls: each add reloaded its operands and each
+; product moved its arguments (~1,650 cycles a channel, ~1,000 of them moves). Here the
+; channel stays in Y, the coefficients in r15:r14, the running value in r5:r2, and the
+; saturating operations flag into r13, ORed into *status once at the end.
+;
+; avr-gcc's interface: c in r25:r24, ch in r23:r22, a in r21:r18, status in r17:r16 (where
+; fx_mul_f_avr takes it); the displacement in r25:r22. Saves r2-r5, r13-r15, r28, r29; r1 is
+; left 0 (only fx_mul_f_avr multiplies, and it clears r1).
+
+; accel_chan_q_t (int32 fields) and accel_cond_q_t (3-byte fx_factor_t: m, then sh) offsets;
+; accel_cond.c checks them against the structs
+#define CH_X1 0
+#define CH_X2 4
+#define CH_L1 8
+#define CH_L2 12
+#define CH_H1 16
+#define CH_H2 20
+#define CH_DH 24
+#define CH_V 28
+#define CH_X 32
+#define C_C2 0
+#define C_C12 3
+#define C_B0 6
+#define C_P1 9
+#define C_P2 12
+#define C_BETA 15
+#define C_GAMMA 18
+
+#include "fixmath/fx_step_avr.inc"
+
+; T (r31:r30, r27:r26) <- the int32 at Y+off
+.macro LDT off
+        ldd     r26, Y+\off
+        ldd     r27, Y+\off+1
+        ldd     r30, Y+\off+2
+        ldd     r31, Y+\off+3
+.endm
+
+        .section .text.accel_cond_step_q_avr, "ax", @progbits
+        .global accel_cond_step_q_avr
+accel_cond_step_q_avr:
+        push    r2
+        push    r3
+        push    r4
+        push    r5
+        push    r13
+        push    r14
+        push    r15
+        push    r28
+        push    r29
+        movw    r14, r24        ; c
+        movw    r28, r22        ; Y = ch
+        clr     r13
+        ; d2 = (a - x1) - (x1 - x2), with x2 <- x1, x1 <- a
+        LDY     22, CH_X1       ; B = x1
+        LDT     CH_X2           ; T = x2
+        STY     CH_X2, 22
+        STY     CH_X1, 18
+        SUB_AB  SATC                  ; A = a - x1
+        sub     r22, r26        ; B = x1 - x2
+        sbc     r23, r27
+        sbc     r24, r30
+        sbc     r25, r31
+        SATC    22, 23, 24, 25
+        SUB_AB  SATC                  ; A = d2
+        ; S = fx_rescale(d2, 16, ACCEL_QH): d2 2^5, saturated past the top six bits
+        mov     r24, r21
+        andi    r24, 0xfc
+        breq    2f
+        cpi     r24, 0xfc
+        breq    2f
+        inc     r13
+        lsl     r21             ; by d2's sign: INT32_MIN, or INT32_MAX
+        sbc     r18, r18
+        com     r18
+        mov     r19, r18
+        movw    r20, r18
+        subi    r21, 0x80
+        rjmp    3f
+2:      .rept   5
+        lsl     r18
+        rol     r19
+        rol     r20
+        rol     r21
+        .endr
+3:      MOV4    2, 18
+        ; dh = ((dh - dh c2) + S) - h1 c12
+        LDY     22, CH_DH
+        MULF    14, C_C2
+        LDY     18, CH_DH
+        SUB_AB  SATC
+        ADD_AR  SATC, 2
+        MOV4    2, 18
+        LDY     22, CH_H1
+        MULF    14, C_C12
+        MOV4    18, 2
+        SUB_AB  SATC
+        STY     CH_DH, 18
+        ; h = h1 + dh; the low-pass's sum (h >> 2) + (h1 >> 1) + (h2 >> 2), exact in int32;
+        ; h2 <- h1, h1 <- h
+        LDY     22, CH_H1       ; B = h1
+        ADD_AB  SATC                  ; A = h
+        LDT     CH_H2           ; T = h2
+        STY     CH_H2, 22
+        STY     CH_H1, 18
+        asr     r25
+        ror     r24
+        ror     r23
+        ror     r22
+        .rept   2
+        asr     r21
+        ror     r20
+        ror     r19
+        ror     r18
+        asr     r31
+        ror     r30
+        ror     r27
+        ror     r26
+        .endr
+        add     r22, r18
+        adc     r23, r19
+        adc     r24, r20
+        adc     r25, r21
+        add     r22, r26
+        adc     r23, r27
+        adc     r24, r30
+        adc     r25, r31
+        ; the low-pass: l = ((sum b0 + (l1 - l2)) + (l1 - l1 p1)) + l2 p2
+        MULF    14, C_B0
+        LDY     18, CH_L1
+        LDT     CH_L2
+        sub     r18, r26
+        sbc     r19, r27
+        sbc     r20, r30
+        sbc     r21, r31
+        SATC    18, 19, 20, 21
+        ADD_AB  SATC
+        MOV4    2, 18
+        LDY     22, CH_L1
+        MULF    14, C_P1
+        LDY     18, CH_L1
+        SUB_AB  SATC
+        ADD_AR  SATC, 2
+        MOV4    2, 18
+        LDY     22, CH_L2
+        MULF    14, C_P2
+        MOV4    18, 2
+        ADD_AB  SATC                  ; A = l
+        ; v = (v + (l + l1)) - v γ, with l2 <- l1, l1 <- l
+        LDY     22, CH_L1
+        STY     CH_L2, 22
+        STY     CH_L1, 18
+        ADD_AB  SATC
+        LDY     22, CH_V        ; B = v
+        ADD_AB  SATC
+        MOV4    2, 18
+        MULF    14, C_GAMMA         ; B = v γ
+        MOV4    18, 2
+        SUB_AB  SATC                  ; A = v'
+        ; x = (x + (v' + v) β) - x γ, with v <- v'
+        LDY     22, CH_V
+        STY     CH_V, 18
+        ADD_AB  SATC
+        movw    r22, r18
+        movw    r24, r20
+        MULF    14, C_BETA
+        LDY     18, CH_X
+        ADD_AB  SATC
+        MOV4    2, 18
+        LDY     22, CH_X
+        MULF    14, C_GAMMA
+        MOV4    18, 2
+        SUB_AB  SATC
+        STY     CH_X, 18
+        movw    r22, r18
+        movw    r24, r20
+        tst     r13             ; the saturations here, into *status
+        breq    4f
+        movw    r30, r16
+        ld      r18, Z
+        ori     r18, SATURATED
+        st      Z, r18
+4:      pop     r29
+        pop     r28
+        pop     r15
+        pop     r14
+        pop     r13
+        pop     r5
+        pop     r4
+        pop     r3
+        pop     r2
+        ret
