@@ -215,6 +215,8 @@ class Link:
         self._held: bytearray | None = None  # frames sent while corked, not yet written
         # Short reads, set once: changing a real port's timeout reconfigures the tty.
         self.port.timeout = _READ_SLICE_S
+        # A port that hands over all that has arrived in one call (tcp://)
+        self._read_waiting = getattr(port, "read_waiting", None)
 
     # -- bytes and frames ------------------------------------------------
 
@@ -230,7 +232,10 @@ class Link:
             if time.perf_counter() > deadline:
                 return None
             try:
-                data = self.port.read(max(1, self.port.in_waiting))
+                if self._read_waiting is not None:
+                    data = self._read_waiting()
+                else:
+                    data = self.port.read(max(1, self.port.in_waiting))
             except (serial.SerialException, OSError) as exc:  # a vanished pty raises EIO
                 raise LinkError(f"the connection to the board broke: {exc}") from None
             if data:

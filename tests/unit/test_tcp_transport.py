@@ -56,3 +56,17 @@ def test_tcp_refuses_another_scheme() -> None:
 
     with pytest.raises(serial.SerialException, match="tcp://HOST:PORT"):
         Serial().from_url("socket://127.0.0.1:1")
+
+
+def test_read_waiting_hands_over_all_that_has_arrived_and_says_when_the_peer_is_gone() -> None:
+    server = socket.create_server(("127.0.0.1", 0))
+    with serial.serial_for_url(f"tcp://127.0.0.1:{server.getsockname()[1]}", timeout=0.2) as port:
+        conn, _ = server.accept()
+        assert port.read_waiting() == b""  # nothing within the timeout
+        conn.sendall(b"\x03ab\x00\x02c\x00")
+        time.sleep(0.05)
+        assert port.read_waiting() == b"\x03ab\x00\x02c\x00"  # both frames, in one call
+        conn.close()
+        with pytest.raises(serial.SerialException, match="disconnected"):
+            port.read_waiting()
+    server.close()
