@@ -4,14 +4,20 @@
 #include "port_tx.h"
 #include "proto/crc32c.h"
 
-void frame_rx_reset(frame_rx_t *rx, uint8_t answers)
+/* The next frame, answering the same type: its CRC starts where every such frame's does. */
+static void rx_restart(frame_rx_t *rx)
 {
     rx->n = 0;
     rx->left = 0;
     rx->zero = 0;
     rx->status = FRAME_MORE;
-    rx->answers = answers;
-    rx->crc = crc32c_update(CRC32C_INIT, answers);
+    rx->crc = rx->crc_start;
+}
+
+void frame_rx_reset(frame_rx_t *rx, uint8_t answers)
+{
+    rx->crc_start = crc32c_update(CRC32C_INIT, answers);
+    rx_restart(rx);
 }
 
 static void rx_emit(frame_rx_t *rx, uint8_t byte)
@@ -48,7 +54,7 @@ static frame_status_t rx_other(frame_rx_t *rx, uint8_t byte)
     if (byte == 0) {
         uint8_t started = rx->n != 0 || rx->left != 0 || rx->zero || rx->status != FRAME_MORE;
         frame_status_t st = rx_end(rx, started);
-        frame_rx_reset(rx, rx->answers); /* raw is kept: the frame is read before the next byte */
+        rx_restart(rx); /* raw is kept: the frame is read before the next byte */
         return st;
     }
     if (rx->status == FRAME_MORE) {

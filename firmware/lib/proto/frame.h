@@ -36,8 +36,8 @@ typedef struct {
     uint8_t left;   /* data bytes left in the COBS block; 0: the next byte is a code */
     uint8_t zero;   /* the block ends in an implied zero, emitted if the frame goes on */
     uint8_t status; /* FRAME_MORE while the frame is good so far */
-    uint8_t answers;
     uint32_t crc;
+    uint32_t crc_start; /* the CRC over the answered type: where each frame's starts */
 } frame_rx_t;
 
 /* Starts a frame that answers a request of type `answers` (0: a request). */
