@@ -33,10 +33,13 @@ OnSample = Callable[[int, Reply, bool, np.ndarray], None]
 History = Callable[[int], Iterator[tuple[np.ndarray, np.ndarray]]]
 
 MAX_RESUMES = 3
-# A real-time open-loop run takes its frames from a thread that makes them this far
-# ahead: making a drive's next chunk (plant and float64 reference, ~1 s for STLQF's) must
-# not hold the loop up. A chunk's worth, so the next is begun a chunk before it is due.
-AHEAD = 4096
+# A real-time open-loop run makes this many samples' frames before its clock starts (a
+# drive of up to 11 min at 100 Hz: all of it), on a thread that then keeps them this far
+# ahead of the loop. Making a chunk (plant and float64 reference, ~1 s for STLQF's 4,096
+# samples) inside the loop held it up: through the interpreter's lock, and at a real-time
+# priority through the kernel, which stops a CPU's real-time threads for the rest of a
+# second once they have used 95 % of it (a 1 ms sleep overshot by up to 169 ms).
+AHEAD = 16 * 4096
 # While a real-time loop runs, the thread making frames gives the interpreter up this
 # often (Python's default, 5 ms, is half the slack of a 100 Hz loop).
 SWITCH_INTERVAL_S = 2e-4
@@ -89,12 +92,13 @@ def _stream(
         for k, reply in enumerate(link.pipeline(requests, window=window), start):
             yield k, reply, False, spec.decode_outputs(reply.fields()["outputs"], mode)
         return
-    # The clock starts once the first sample exists: making the drive's first chunk (its
-    # plant and reference, ~0.8 s for STLQF's 60 s drive) is not the loop's time.
-    frames = itertools.chain([next(frames)], frames) if source.total > start else frames
     with _real_time(realtime):
         if realtime and not source.closed:
-            frames = _made_ahead(frames, AHEAD)
+            frames = _made_ahead(frames, AHEAD, fill_first=True)
+        # The clock starts once the first sample exists (an open loop's real-time run: its
+        # first AHEAD): making them is not the loop's time.
+        if source.total > start:
+            frames = itertools.chain([next(frames)], frames)
         yield from _paced(link, source, sc, realtime, frames, start)
 
 
@@ -150,20 +154,24 @@ def _below_the_loop() -> None:
             os.sched_setscheduler(0, policy, os.sched_param(prio - 1))
 
 
-def _made_ahead(items: Iterator[Item], depth: int) -> Iterator[Item]:
-    """`items`, made on a thread of their own up to `depth` ahead of the consumer; an
-    exception raised making them is raised here, in order. The thread runs just below the
-    loop (_below_the_loop)."""
+def _made_ahead(items: Iterator[Item], depth: int, *, fill_first: bool = False) -> Iterator[Item]:
+    """`items`, made on a thread of their own up to `depth` ahead of the consumer (with
+    `fill_first`, the first is handed over once `depth` are made, or all); an exception
+    raised making them is raised here, in order. The thread runs just below the loop
+    (_below_the_loop)."""
     made: queue.Queue[tuple[bool, Item | BaseException | None]] = queue.Queue(maxsize=depth)
     stop = threading.Event()
+    filled = threading.Event()
 
     def put(item: tuple[bool, Item | BaseException | None]) -> bool:
         while not stop.is_set():
             try:
                 made.put(item, timeout=0.1)
+                if made.full() or not item[0]:
+                    filled.set()
                 return True
             except queue.Full:
-                pass
+                filled.set()
         return False
 
     def make() -> None:
@@ -179,6 +187,8 @@ def _made_ahead(items: Iterator[Item], depth: int) -> Iterator[Item]:
     thread = threading.Thread(target=make, name="vehil-frames-ahead", daemon=True)
     thread.start()
     try:
+        if fill_first:
+            filled.wait()
         while True:
             more, item = made.get()
             if not more:

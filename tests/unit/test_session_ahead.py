@@ -89,3 +89,25 @@ def test_the_maker_runs_one_real_time_priority_below_a_real_time_loop() -> None:
     made, loop_priority = _in_thread_at_rr(10, loop)
     assert made == [(os.SCHED_RR, 9)]
     assert loop_priority == 10  # the loop's thread keeps its own
+
+
+def test_filled_first_the_first_comes_once_all_are_made_or_the_queue_is_full() -> None:
+    """A real-time run's clock starts on its first frame: a drive that fits the queue is
+    all made by then, and nothing is made while the loop runs."""
+    made: list[int] = []
+
+    def items(n: int) -> Iterator[int]:
+        for i in range(n):
+            time.sleep(0.001)
+            made.append(i)
+            yield i
+
+    it = _made_ahead(items(50), depth=100, fill_first=True)
+    assert next(it) == 0
+    assert len(made) == 50  # the whole drive
+    assert list(it) == list(range(1, 50))
+    made.clear()
+    it = _made_ahead(items(500), depth=20, fill_first=True)
+    assert next(it) == 0
+    assert len(made) >= 20  # a full queue's worth
+    it.close()
