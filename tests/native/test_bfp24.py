@@ -65,9 +65,9 @@ def round_f32(s: int, e: int) -> float:
 
 def _lib(native_lib):  # noqa: ANN001, ANN202
     lib = native_lib
-    lib.bfp24_from_f32.argtypes = [ctypes.POINTER(ctypes.c_float), ctypes.c_uint8]
-    lib.bfp24_from_f32.argtypes += [ctypes.POINTER(ctypes.c_uint32)]
-    lib.bfp24_from_f32.restype = ctypes.c_int16
+    lib.bfp24_from_f32_c.argtypes = [ctypes.POINTER(ctypes.c_float), ctypes.c_uint8]
+    lib.bfp24_from_f32_c.argtypes += [ctypes.POINTER(ctypes.c_uint32)]
+    lib.bfp24_from_f32_c.restype = ctypes.c_int16
     lib.bfp24_dot_c.argtypes = [ctypes.POINTER(ctypes.c_uint32)] * 2 + [ctypes.c_uint8]
     lib.bfp24_dot_c.restype = ctypes.c_int64
     lib.bfp24_to_f32_c.argtypes = [ctypes.c_int64, ctypes.c_int16]
@@ -78,7 +78,7 @@ def _lib(native_lib):  # noqa: ANN001, ANN202
 def _c_block(lib, xs: list[float]) -> tuple[list[int], int]:  # noqa: ANN001
     n = len(xs)
     out = (ctypes.c_uint32 * n)()
-    e = lib.bfp24_from_f32((ctypes.c_float * n)(*xs), n, out)
+    e = lib.bfp24_from_f32_c((ctypes.c_float * n)(*xs), n, out)
     return list(out), e
 
 

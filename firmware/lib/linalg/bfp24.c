@@ -24,7 +24,7 @@ static uint8_t exponent(uint32_t bits)
     return ex != 0u ? ex : 1u;
 }
 
-int16_t bfp24_from_f32(const float *x, uint8_t n, uint32_t *m)
+int16_t bfp24_from_f32_c(const float *x, uint8_t n, uint32_t *m)
 {
     uint8_t top = 1;
     for (uint8_t i = 0; i < n; i++) {
