@@ -57,19 +57,19 @@ void accel_cond_design_f32(accel_cond_f32_t *c, const uint8_t *params, uint8_t f
 
 void accel_cond_q_from_f32(accel_cond_q_t *q, const accel_cond_f32_t *c, uint8_t *status)
 {
-    q->hp = (hp_delta_q_t){fx_factor(c->hp.c2, 0, status), fx_factor(c->hp.c12, 0, status)};
+    q->hp = (hp_delta_q_t){fx_xfactor(c->hp.c2, 0, status), fx_xfactor(c->hp.c12, 0, status)};
     /* the poles as their distances from a1 = -2, a2 = 1 (a double pole at z = 1), which
      * keep 16 bits where the poles near 1 need them; b0 from the poles as kept, so that the
      * DC gain stays 1 */
-    fx_factor_t p1 = fx_factor(c->lp.a1 + 2.0f, 0, status);
-    fx_factor_t p2 = fx_factor(1.0f - c->lp.a2, 0, status);
-    float b0 = 0.25f * (fx_factor_value(p1) - fx_factor_value(p2));
+    fx_xfactor_t p1 = fx_xfactor(c->lp.a1 + 2.0f, 0, status);
+    fx_xfactor_t p2 = fx_xfactor(1.0f - c->lp.a2, 0, status);
+    float b0 = 0.25f * (fx_factor_value(p1.f) - fx_factor_value(p2.f));
     /* the high-pass runs on h/g: its g goes into the low-pass's b0, and so does the first
      * trapezoid's β, so that the low-pass gives β l, the velocity's increment */
     float beta = c->alpha * c->half_T;
-    q->lp = (biquad_q_t){fx_factor(b0 * c->hp.g * beta, 26 - (ACCEL_QH - 2), status), p1, p2};
-    q->beta = fx_factor(beta, 2, status);
-    q->gamma = fx_factor(c->one_m_alpha, 0, status);
+    q->lp = (biquad_q_t){fx_xfactor(b0 * c->hp.g * beta, 26 - (ACCEL_QH - 2), status), p1, p2};
+    q->beta = fx_xfactor(beta, 2, status);
+    q->gamma = fx_xfactor(c->one_m_alpha, 0, status);
 }
 
 static float biquad_f32(const biquad_f32_t *b, float x, float x1, float x2, float y1, float y2)
@@ -101,9 +101,9 @@ static int32_t biquad_q(const biquad_q_t *b, int32_t x, int32_t x1, int32_t x2, 
                         int32_t y2, uint8_t *s)
 {
     int32_t sum = (x >> 2) + (x1 >> 1) + (x2 >> 2);
-    int32_t y = fx_add(fx_mul_f(sum, b->b0, s), fx_sub(y1, y2, s), s);
-    y = fx_add(y, fx_sub(y1, fx_mul_f(y1, b->p1, s), s), s);
-    return fx_add(y, fx_mul_f(y2, b->p2, s), s);
+    int32_t y = fx_add(fx_mul_f(sum, b->b0.f, s), fx_sub(y1, y2, s), s);
+    y = fx_add(y, fx_sub(y1, fx_mul_f(y1, b->p1.f, s), s), s);
+    return fx_add(y, fx_mul_f(y2, b->p2.f, s), s);
 }
 
 #if defined(__AVR__)
@@ -119,12 +119,13 @@ AT(accel_chan_q_t, dh, 24);
 AT(accel_chan_q_t, v, 28);
 AT(accel_chan_q_t, x, 32);
 AT(accel_cond_q_t, hp, 0);
-AT(accel_cond_q_t, lp, 6);
-AT(accel_cond_q_t, beta, 15);
-AT(accel_cond_q_t, gamma, 18);
-AT(hp_delta_q_t, c12, 3);
-AT(biquad_q_t, p1, 3);
-AT(biquad_q_t, p2, 6);
+AT(accel_cond_q_t, lp, 10);
+AT(accel_cond_q_t, beta, 25);
+AT(accel_cond_q_t, gamma, 30);
+AT(hp_delta_q_t, c12, 5);
+AT(biquad_q_t, p1, 5);
+AT(biquad_q_t, p2, 10);
+AT(fx_xfactor_t, entry, 3);
 AT(fx_factor_t, sh, 2);
 #undef AT
 #endif
@@ -134,15 +135,15 @@ int32_t accel_cond_step_q_c(const accel_cond_q_t *c, accel_chan_q_t *ch, int32_t
 {
     const hp_delta_q_t *hp = &c->hp;
     int32_t d2 = fx_sub(fx_sub(a, ch->x1, status), fx_sub(ch->x1, ch->x2, status), status);
-    int32_t dh = fx_sub(ch->dh, fx_mul_f(ch->dh, hp->c2, status), status);
+    int32_t dh = fx_sub(ch->dh, fx_mul_f(ch->dh, hp->c2.f, status), status);
     dh = fx_add(dh, fx_rescale(d2, 16, ACCEL_QH, status), status);
-    ch->dh = fx_sub(dh, fx_mul_f(ch->h1, hp->c12, status), status);
+    ch->dh = fx_sub(dh, fx_mul_f(ch->h1, hp->c12.f, status), status);
     int32_t h = fx_add(ch->h1, ch->dh, status);
     int32_t l = biquad_q(&c->lp, h, ch->h1, ch->h2, ch->l1, ch->l2, status);
     int32_t v = fx_add(ch->v, fx_add(l, ch->l1, status), status);
-    v = fx_sub(v, fx_mul_f(ch->v, c->gamma, status), status);
-    int32_t x = fx_add(ch->x, fx_mul_f(fx_add(v, ch->v, status), c->beta, status), status);
-    ch->x = fx_sub(x, fx_mul_f(ch->x, c->gamma, status), status);
+    v = fx_sub(v, fx_mul_f(ch->v, c->gamma.f, status), status);
+    int32_t x = fx_add(ch->x, fx_mul_f(fx_add(v, ch->v, status), c->beta.f, status), status);
+    ch->x = fx_sub(x, fx_mul_f(ch->x, c->gamma.f, status), status);
     ch->x2 = ch->x1, ch->x1 = a;
     ch->l2 = ch->l1, ch->l1 = l;
     ch->h2 = ch->h1, ch->h1 = h;

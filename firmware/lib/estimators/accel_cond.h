@@ -33,7 +33,7 @@ typedef struct {
 } biquad_f32_t;
 
 typedef struct {
-    fx_factor_t b0, p1, p2; /* Q19 sum -> Q26 (b0 g β); p1 = a1 + 2, p2 = 1 - a2: Q26 -> Q26 */
+    fx_xfactor_t b0, p1, p2; /* Q19 sum -> Q26 (b0 g β); p1 = a1 + 2, p2 = 1 - a2: Q26 -> Q26 */
 } biquad_q_t;
 
 typedef struct {
@@ -41,7 +41,7 @@ typedef struct {
 } hp_delta_f32_t;
 
 typedef struct {
-    fx_factor_t c2, c12; /* Q21 -> Q21; g is the low-pass's (docs/estimators/eso.md) */
+    fx_xfactor_t c2, c12; /* Q21 -> Q21; g is the low-pass's (docs/estimators/eso.md) */
 } hp_delta_q_t;
 
 typedef struct {
@@ -55,7 +55,7 @@ typedef struct {
 typedef struct {
     hp_delta_q_t hp;
     biquad_q_t lp;
-    fx_factor_t beta, gamma; /* β: Q26 -> Q28 (the first β is in the low-pass), γ: Q -> Q */
+    fx_xfactor_t beta, gamma; /* β: Q26 -> Q28 (the first β is in the low-pass), γ: Q -> Q */
 } accel_cond_q_t;
 
 /* One channel's memory; the low-pass's input history is the high-pass's output history. */

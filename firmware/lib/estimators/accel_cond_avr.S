@@ -1,17 +1,18 @@
 ; accel_cond_step_q for the AVR build: one channel's fixed-point step (accel_cond.h), the same
 ; operations in the same order as its C twin accel_cond_step_q_c (accel_cond.c), so the same
-; bits: eight products by factors (fixmath's fx_mul_f_avr) and the saturating adds, subtracts
-; and the rescale between them. Written out because in C the flattened ESO step kept almost
+; bits: eight products by factors (fx_mul_f_avr's, inline: fixmath/fx_step_avr.inc's MULX)
+; and the saturating adds, subtracts and the rescale between them. Written out because in C the flattened ESO step kept almost
 ; nothing in registers across the kernel's calls: each add reloaded its operands and each
 ; product moved its arguments (~1,650 cycles a channel, ~1,000 of them moves). Here the
-; channel stays in Y, the coefficients in r15:r14, the running value in r5:r2, and the
-; saturating operations flag into r13, ORed into *status once at the end.
+; channel stays in Y, the coefficients in r15:r14, the running value in r5:r2, each
+; product's entry in r7:r6, and the saturating operations flag into r13, ORed into *status
+; once at the end.
 ;
 ; avr-gcc's interface: c in r25:r24, ch in r23:r22, a in r21:r18, status in r17:r16 (where
-; fx_mul_f_avr takes it); the displacement in r25:r22. Saves r2-r5, r13-r15, r28, r29; r1 is
-; left 0 (only fx_mul_f_avr multiplies, and it clears r1).
+; fx_mul_f_avr's entries take it); the displacement in r25:r22. Saves r2-r7, r13-r15, r28,
+; r29; r1 is left 0.
 
-; accel_chan_q_t (int32 fields) and accel_cond_q_t (3-byte fx_factor_t: m, then sh) offsets;
+; accel_chan_q_t (int32 fields) and accel_cond_q_t (5-byte fx_xfactor_t: m, sh, entry) offsets;
 ; accel_cond.c checks them against the structs
 #define CH_X1 0
 #define CH_X2 4
@@ -23,12 +24,12 @@
 #define CH_V 28
 #define CH_X 32
 #define C_C2 0
-#define C_C12 3
-#define C_B0 6
-#define C_P1 9
-#define C_P2 12
-#define C_BETA 15
-#define C_GAMMA 18
+#define C_C12 5
+#define C_B0 10
+#define C_P1 15
+#define C_P2 20
+#define C_BETA 25
+#define C_GAMMA 30
 
 #include "fixmath/fx_step_avr.inc"
 
@@ -47,6 +48,8 @@ accel_cond_step_q_avr:
         push    r3
         push    r4
         push    r5
+        push    r6
+        push    r7
         push    r13
         push    r14
         push    r15
@@ -90,13 +93,13 @@ accel_cond_step_q_avr:
 3:      MOV4    2, 18
         ; dh = ((dh - dh c2) + S) - h1 c12
         LDY     22, CH_DH
-        MULF    14, C_C2
+        MULX    14, C_C2, 6
         LDY     18, CH_DH
         SUB_AB  SATC
         ADD_AR  SATC, 2
         MOV4    2, 18
         LDY     22, CH_H1
-        MULF    14, C_C12
+        MULX    14, C_C12, 6
         MOV4    18, 2
         SUB_AB  SATC
         STY     CH_DH, 18
@@ -130,7 +133,7 @@ accel_cond_step_q_avr:
         adc     r24, r30
         adc     r25, r31
         ; the low-pass: l = ((sum b0 + (l1 - l2)) + (l1 - l1 p1)) + l2 p2
-        MULF    14, C_B0
+        MULX    14, C_B0, 6
         LDY     18, CH_L1
         LDT     CH_L2
         sub     r18, r26
@@ -141,13 +144,13 @@ accel_cond_step_q_avr:
         ADD_AB  SATC
         MOV4    2, 18
         LDY     22, CH_L1
-        MULF    14, C_P1
+        MULX    14, C_P1, 6
         LDY     18, CH_L1
         SUB_AB  SATC
         ADD_AR  SATC, 2
         MOV4    2, 18
         LDY     22, CH_L2
-        MULF    14, C_P2
+        MULX    14, C_P2, 6
         MOV4    18, 2
         ADD_AB  SATC                  ; A = l
         ; v = (v + (l + l1)) - v γ, with l2 <- l1, l1 <- l
@@ -158,7 +161,7 @@ accel_cond_step_q_avr:
         LDY     22, CH_V        ; B = v
         ADD_AB  SATC
         MOV4    2, 18
-        MULF    14, C_GAMMA         ; B = v γ
+        MULX    14, C_GAMMA, 6         ; B = v γ
         MOV4    18, 2
         SUB_AB  SATC                  ; A = v'
         ; x = (x + (v' + v) β) - x γ, with v <- v'
@@ -167,12 +170,12 @@ accel_cond_step_q_avr:
         ADD_AB  SATC
         movw    r22, r18
         movw    r24, r20
-        MULF    14, C_BETA
+        MULX    14, C_BETA, 6
         LDY     18, CH_X
         ADD_AB  SATC
         MOV4    2, 18
         LDY     22, CH_X
-        MULF    14, C_GAMMA
+        MULX    14, C_GAMMA, 6
         MOV4    18, 2
         SUB_AB  SATC
         STY     CH_X, 18
@@ -189,6 +192,8 @@ accel_cond_step_q_avr:
         pop     r15
         pop     r14
         pop     r13
+        pop     r7
+        pop     r6
         pop     r5
         pop     r4
         pop     r3

@@ -53,19 +53,19 @@ static uint8_t step_f32(eso_state_t *st, const uint8_t *in, uint8_t *out)
 
 /* -- fixed point --------------------------------------------------------- */
 
-void eso_observer_q_c(const fx_factor_t *k, int32_t *z, int32_t y, uint8_t *st, int32_t acc)
+void eso_observer_q_c(const fx_xfactor_t *k, int32_t *z, int32_t y, uint8_t *st, int32_t acc)
 {
     int32_t e = fx_sub(y, z[0], st);
-    int32_t z0 = fx_add(z[0], fx_mul_f(z[1], k[ESO_K_T], st), st);
-    int32_t z1 = fx_add(z[1], fx_mul_f(acc, k[ESO_K_T], st), st);
-    z[0] = fx_add(z0, fx_mul_f(e, k[ESO_K_G1], st), st);
-    z[1] = fx_add(z1, fx_mul_f(e, k[ESO_K_G2], st), st);
-    z[2] = fx_add(z[2], fx_mul_f(e, k[ESO_K_G3], st), st);
+    int32_t z0 = fx_add(z[0], fx_mul_f(z[1], k[ESO_K_T].f, st), st);
+    int32_t z1 = fx_add(z[1], fx_mul_f(acc, k[ESO_K_T].f, st), st);
+    z[0] = fx_add(z0, fx_mul_f(e, k[ESO_K_G1].f, st), st);
+    z[1] = fx_add(z1, fx_mul_f(e, k[ESO_K_G2].f, st), st);
+    z[2] = fx_add(z[2], fx_mul_f(e, k[ESO_K_G3].f, st), st);
 }
 
 #if defined(__AVR__)
 #define observer_q eso_observer_q_avr
-typedef char eso_k_at[sizeof(fx_factor_t) == 3 ? 1 : -1]; /* eso_avr.S's offsets */
+typedef char eso_k_at[sizeof(fx_xfactor_t) == 5 ? 1 : -1]; /* eso_avr.S's offsets */
 #else
 #define observer_q eso_observer_q_c
 #endif
@@ -151,10 +151,10 @@ static uint8_t eso_configure(void *state, uint8_t mode, const uint8_t *params)
         if (bad != 0) {
             return (uint8_t)(N_OWN + bad);
         }
-        q->k[ESO_K_T] = fx_factor(T, 4, &status);
-        q->k[ESO_K_G1] = fx_factor(f.g[0], 0, &status);
-        q->k[ESO_K_G2] = fx_factor(f.g[1], -4, &status);
-        q->k[ESO_K_G3] = fx_factor(f.g[2], -8, &status);
+        q->k[ESO_K_T] = fx_xfactor(T, 4, &status);
+        q->k[ESO_K_G1] = fx_xfactor(f.g[0], 0, &status);
+        q->k[ESO_K_G2] = fx_xfactor(f.g[1], -4, &status);
+        q->k[ESO_K_G3] = fx_xfactor(f.g[2], -8, &status);
     }
     eso_reset(st);
     return 0;

@@ -30,7 +30,7 @@ typedef struct {
 typedef struct {
     susp_ecu_q_t ecu;
     /* T (Q24 -> Q28 and Q20 -> Q24), then the gains g1, g2, g3 (Q28 -> Q28, Q24, Q20) */
-    fx_factor_t k[4];
+    fx_xfactor_t k[4];
     int32_t z[6];          /* Q28 Q24 Q20, Q28 Q24 Q20 */
     int32_t fnl;           /* N, Q16 */
 } eso_q_t;
@@ -48,10 +48,10 @@ enum { ESO_K_T, ESO_K_G1, ESO_K_G2, ESO_K_G3 }; /* eso_q_t's factors k */
 /* One observer's step, Euler (eq. 12): z Q28/Q24/Q20, y Q28, acceleration input acc Q20. On
  * the AVR an assembly routine (eso_avr.S) that keeps z, e and the sums in registers across the
  * products; the C twin gives the same bits on the host. */
-void eso_observer_q_c(const fx_factor_t *k, int32_t *z, int32_t y, uint8_t *status,
+void eso_observer_q_c(const fx_xfactor_t *k, int32_t *z, int32_t y, uint8_t *status,
                       int32_t acc);
 #if defined(__AVR__)
-void eso_observer_q_avr(const fx_factor_t *k, int32_t *z, int32_t y, uint8_t *status,
+void eso_observer_q_avr(const fx_xfactor_t *k, int32_t *z, int32_t y, uint8_t *status,
                         int32_t acc);
 #endif
 

@@ -175,6 +175,19 @@ float fx_factor_value(fx_factor_t f)
     return (f.sh & 0x80u) ? -v : v;
 }
 
+#if defined(__AVR__)
+uint16_t fx_mul_f_entry(uint8_t sh); /* fx_mul_f_avr.S */
+#endif
+
+fx_xfactor_t fx_xfactor(float x, int8_t e, uint8_t *status)
+{
+    fx_xfactor_t xf = {fx_factor(x, e, status), 0};
+#if defined(__AVR__)
+    xf.entry = fx_mul_f_entry(xf.f.sh);
+#endif
+    return xf;
+}
+
 int32_t fx_mul_f_c(int32_t a, uint16_t m, uint8_t sh, uint8_t *status)
 {
     uint8_t s = sh & 0x3fu;

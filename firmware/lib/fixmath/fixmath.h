@@ -523,6 +523,17 @@ FX_INLINE int32_t fx_mul_f(int32_t a, fx_factor_t f, uint8_t *status)
 }
 #endif
 
+/* A factor and, on the AVR, the word address of fx_mul_f_avr.S's entry for its shift: the
+ * assembly steps (fx_step_avr.inc's MULX) multiply inline and call the entry directly, where
+ * fx_mul_f_avr's call and its table lookup cost ~16 cycles a product. The C twins read f.
+ * fx_xfactor (configure time): fx_factor's f; entry 0 on the host. */
+typedef struct {
+    fx_factor_t f;
+    uint16_t entry;
+} fx_xfactor_t;
+
+fx_xfactor_t fx_xfactor(float x, int8_t e, uint8_t *status);
+
 /* a (qa) * b (qb) -> q_out, ties away from zero; qa + qb <= q_out (no fraction bit to
  * drop) or a shift past 62 goes through int64 (fx_mul_wide). */
 int32_t fx_mul_wide(int32_t a, uint8_t qa, int32_t b, uint8_t qb, uint8_t q_out, uint8_t *status);

@@ -145,3 +145,20 @@ fx_mul_f_avr:
         lsl     r30
         clr     r31
         JUMP_THROUGH fx_mul_f_table
+
+; fx_mul_f_entry(sh): the word address JUMP_THROUGH takes for a factor's shift (sh in r24, its
+; sign bit ignored), in r25:r24: fixmath.h's fx_xfactor keeps it beside the factor, so that
+; the assembly steps (fx_step_avr.inc's MULX) call the entry without the table.
+        .section .text.fx_mul_f_entry, "ax", @progbits
+        .global fx_mul_f_entry
+fx_mul_f_entry:
+        mov     r30, r24
+        andi    r30, 0x3f
+        subi    r30, 9
+        lsl     r30
+        clr     r31
+        subi    r30, lo8(-(fx_mul_f_table))
+        sbci    r31, hi8(-(fx_mul_f_table))
+        lpm     r24, Z+
+        lpm     r25, Z
+        ret
