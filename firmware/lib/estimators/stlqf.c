@@ -283,7 +283,7 @@ static int32_t scale_pow2(int64_t x, int16_t up, uint8_t *st)
 /* v 2^-down, rounded half up, by whole bytes and then bits (|v| < 2^30): floor((v +
  * 2^(down-1)) 2^-down) is (floor(v 2^(1-down)) + 1) >> 1, so no 2^(down-1) to form (a
  * shift by a count known only at run time loops a bit at a time on the AVR). */
-static int32_t shift_down(int32_t v, uint8_t down)
+static inline __attribute__((always_inline)) int32_t shift_down(int32_t v, uint8_t down)
 {
     if (down == 0u) {
         return v;

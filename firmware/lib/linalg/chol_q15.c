@@ -64,25 +64,28 @@ static int16_t to_q15(int32_t x, uint8_t *status)
 static int32_t substitute(int32_t x, const int16_t *l, const int32_t *y, uint8_t stride_l,
                           uint8_t n, int32_t inv, uint8_t *status)
 {
-    int32_t s = fx_sub(x, fx_dot16x32_q15(l, y, n, stride_l, status), status);
+    int32_t s = n != 0u ? fx_sub(x, fx_dot16x32_q15(l, y, n, stride_l, status), status) : x;
     return fx_mul_shr(s, inv, 16, status); /* 1 / l_ii in Q16 */
 }
 
 uint8_t chol_solve_q15(const int32_t *a, int32_t *b, uint8_t n, int16_t *l, int32_t *inv,
                        uint8_t *status)
 {
-    for (uint8_t j = 0; j < n; j++) {
-        for (uint8_t i = j; i < n; i++) {
+    int16_t *lj = l; /* row j of L, then row i */
+    for (uint8_t j = 0; j < n; j++, lj += n) {
+        const int32_t *aij = a + j * n + j;
+        int16_t *li = lj;
+        for (uint8_t i = j; i < n; i++, li += n, aij += n) {
             /* Q30; the sums stay below sqrt(a_ii a_jj) < 1 */
-            int32_t s = a[i * n + j] - fx_dot16(l + i * n, l + j * n, j);
+            int32_t s = j != 0u ? *aij - fx_dot16(li, lj, j) : *aij;
             if (i == j) {
                 if (s < ((int32_t)1 << 10)) {
                     return 0;
                 }
-                l[j * n + j] = (int16_t)isqrt((uint32_t)s);
-                inv[j] = (int32_t)recip31((uint16_t)l[j * n + j]); /* l_jj >= 32 */
+                lj[j] = (int16_t)isqrt((uint32_t)s);
+                inv[j] = (int32_t)recip31((uint16_t)lj[j]); /* l_jj >= 32 */
             } else {
-                l[i * n + j] = to_q15(fx_mul_shr(s, inv[j], 31, status), status);
+                li[j] = to_q15(fx_mul_shr(s, inv[j], 31, status), status);
             }
         }
     }
