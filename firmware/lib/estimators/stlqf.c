@@ -413,14 +413,6 @@ static int8_t normalize64(const int64_t *in, int32_t *out, uint8_t n)
     }
 }
 
-/* a b, exact: the hardware's signed × unsigned product, less a 2^16 where b < 0 (|a b| <
- * 2^28 here, so the int32 sums of three cannot overflow). */
-static inline int32_t mul16(int16_t a, int16_t b)
-{
-    uint32_t p = (uint32_t)fx_smul16x16(a, (uint16_t)b);
-    return (int32_t)(b < 0 ? p - ((uint32_t)(uint16_t)a << 16) : p);
-}
-
 /* x = R col as int16 (X_LIMIT); returns x's exponent relative to col's (R at its own
  * scale, the same for every column, which cancels in the solve). */
 static int8_t weigh(const int16_t band[STLQF_ROWS][3], const int32_t *col, int16_t *x)
@@ -429,14 +421,14 @@ static int8_t weigh(const int16_t band[STLQF_ROWS][3], const int32_t *col, int16
     int32_t wide[STLQF_ROWS];
     int8_t e = normalize(col, c, STLQF_ROWS, COL_LIMIT);
     /* R's band: three entries, fewer at the end; inline products, where a call per row
-     * cost as much as its three products */
+     * cost as much as its three products (|R|, |c| <= COL_LIMIT: sums below 2^30) */
     for (uint8_t i = 0; i + 2u < STLQF_ROWS; i++) {
-        wide[i] = mul16(band[i][0], c[i]) + mul16(band[i][1], c[i + 1u]) +
-                  mul16(band[i][2], c[i + 2u]);
+        wide[i] = fx_mul16x16(band[i][0], c[i]) + fx_mul16x16(band[i][1], c[i + 1u]) +
+                  fx_mul16x16(band[i][2], c[i + 2u]);
     }
-    wide[STLQF_ROWS - 2u] = mul16(band[STLQF_ROWS - 2u][0], c[STLQF_ROWS - 2u]) +
-                            mul16(band[STLQF_ROWS - 2u][1], c[STLQF_ROWS - 1u]);
-    wide[STLQF_ROWS - 1u] = mul16(band[STLQF_ROWS - 1u][0], c[STLQF_ROWS - 1u]);
+    wide[STLQF_ROWS - 2u] = fx_mul16x16(band[STLQF_ROWS - 2u][0], c[STLQF_ROWS - 2u]) +
+                            fx_mul16x16(band[STLQF_ROWS - 2u][1], c[STLQF_ROWS - 1u]);
+    wide[STLQF_ROWS - 1u] = fx_mul16x16(band[STLQF_ROWS - 1u][0], c[STLQF_ROWS - 1u]);
     return (int8_t)(e + normalize(wide, x, STLQF_ROWS, X_LIMIT));
 }
 

@@ -240,9 +240,36 @@ FX_INLINE int32_t fx_smul16x16(int16_t a, uint16_t b)
             : "a"(a), "a"(b));
     return r;
 }
+
+/* both signed */
+FX_INLINE int32_t fx_mul16x16(int16_t a, int16_t b)
+{
+    int32_t r;
+    uint8_t zero;
+    __asm__("muls %B2, %B3\n\t"
+            "movw %C0, r0\n\t"
+            "mul %A2, %A3\n\t"
+            "movw %A0, r0\n\t"
+            "clr %1\n\t"
+            "mulsu %B2, %A3\n\t"
+            "sbc %D0, %1\n\t"
+            "add %B0, r0\n\t"
+            "adc %C0, r1\n\t"
+            "adc %D0, %1\n\t"
+            "mulsu %B3, %A2\n\t"
+            "sbc %D0, %1\n\t"
+            "add %B0, r0\n\t"
+            "adc %C0, r1\n\t"
+            "adc %D0, %1\n\t"
+            "clr r1"
+            : "=&r"(r), "=&r"(zero)
+            : "a"(a), "a"(b));
+    return r;
+}
 #else
 FX_INLINE uint32_t fx_umul16x16(uint16_t a, uint16_t b) { return (uint32_t)a * b; }
 FX_INLINE int32_t fx_smul16x16(int16_t a, uint16_t b) { return (int32_t)a * (int32_t)b; }
+FX_INLINE int32_t fx_mul16x16(int16_t a, int16_t b) { return (int32_t)a * b; }
 #endif
 
 /* p · 2^-15 rounded half up, for p < 2^31 - 2^14 (a 16 × 16 product by a Q15 fraction): a
