@@ -14,7 +14,7 @@ static const ROM param_range_t ranges[N_OWN] = {
 
 /* -- float32 ------------------------------------------------------------- */
 
-static uint8_t step_f32(eso_state_t *st, const uint8_t *in, uint8_t *out)
+__attribute__((noinline)) static uint8_t step_f32(eso_state_t *st, const uint8_t *in, uint8_t *out)
 {
     eso_f32_t *s = &st->u.f32;
     const qcar_f32_t *m = &s->ecu.model;
@@ -70,7 +70,7 @@ typedef char eso_k_at[sizeof(fx_xfactor_t) == 5 ? 1 : -1]; /* eso_avr.S's offset
 #define observer_q eso_observer_q_c
 #endif
 
-__attribute__((flatten)) static uint8_t step_q(eso_state_t *st, const uint8_t *in, uint8_t *out)
+__attribute__((flatten, noinline)) static uint8_t step_q(eso_state_t *st, const uint8_t *in, uint8_t *out)
 {
     eso_q_t *s = &st->u.q;
     const qcar_q_t *m = &s->ecu.model;

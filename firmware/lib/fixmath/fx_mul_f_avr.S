@@ -15,7 +15,8 @@
 #include "fx_table_jump.inc"
 
 ; Q = P >> 8 (P = |a| m < 2^47) lives in five registers, byte i of Q in QREG(i):
-; r19, r26, r27, r20, r21. r18 is zero.
+; r19, r26, r27, r20, r21. r18 is zero (and takes the bits shifted past r21 when an entry
+; shifts left: R >= 5); so is r1.
 .macro QR out, i
         .if     \i == 0
         .set    \out, 19
@@ -47,6 +48,7 @@ fx_mul_f\n:
         .endr
         .set    B, s / 8        ; >> s: bytes from B, then R bits
         .set    R, s % 8
+        .if     R < 5
         .rept   R
         lsr     21
         .set    j, 3
@@ -56,18 +58,36 @@ fx_mul_f\n:
         .set    j, j - 1
         .endr
         .endr
+        .set    hi, 21          ; the byte above the result (when B = 0)
+        .else                   ; or << 8 - R into r18, then bytes from B + 1: fewer shifts
+        .rept   8 - R
+        .set    j, B
+        QR      rr, j
+        lsl     rr
+        .rept   4 - B
+        .set    j, j + 1
+        QR      rr, j
+        rol     rr
+        .endr
+        rol     18
+        .endr
+        .set    B, B + 1
+        .set    hi, 18
+        .endif
         .set    i, 0
         .rept   4
         .if     B + i <= 4
         QR      rr, B + i
         mov     22 + i, rr
-        .else
+        .elseif B + i == 5
         mov     22 + i, 18
+        .else
+        mov     22 + i, 1       ; r1 is 0
         .endif
         .set    i, i + 1
         .endr
         .if     s < 8           ; |a| m 2^-n can pass 2^31 - 1 only for n < 16
-        tst     21
+        tst     hi
         brne    8f
         sbrc    25, 7
         rjmp    8f
@@ -83,7 +103,7 @@ fx_mul_f\n:
 9:      ret
         .if     s < 8
 8:      brtc    10f             ; past it: exactly 2^31 is INT32_MIN when negative
-        tst     21
+        tst     hi
         brne    10f
         cpi     25, 0x80
         brne    10f
