@@ -36,7 +36,7 @@ enum {
 	EXIT_HALT = 4,
 };
 
-enum transport { TR_TCP, TR_PTY };
+enum transport { TR_TCP, TR_UNIX, TR_PTY };
 /* Default transport (see sim/README.md): as fast as TCP, loss-free, and the
  * CPU can start exactly when pyserial's open() is done (no fixed delay). */
 #define DEFAULT_TRANSPORT TR_PTY
@@ -46,6 +46,7 @@ enum transport { TR_TCP, TR_PTY };
 struct options {
 	enum transport transport;
 	int tcp_port;
+	const char *unix_path;	/* --unix PATH */
 	const char *mcu;
 	uint32_t freq;
 	const char *vcd;
@@ -80,7 +81,8 @@ int load_flash_segments(const char *path, elf_firmware_t *fw);
 
 /* transport.c */
 int open_tcp(int port, int *out_port);
-int accept_tcp(int ls);
+int open_unix(const char *path);
+int accept_client(int ls);
 int open_pty(char *name, size_t n);
 int sleep_ms_unless_signal(unsigned ms);
 int wait_pty_client(int m, unsigned max_ms);

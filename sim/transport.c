@@ -13,6 +13,8 @@
 #include <string.h>
 #include <sys/ioctl.h>
 #include <sys/socket.h>
+#include <sys/stat.h>
+#include <sys/un.h>
 #include <termios.h>
 #include <time.h>
 #include <unistd.h>
@@ -42,8 +44,34 @@ int open_tcp(int port, int *out_port)
 	return s;
 }
 
+/* A Unix-domain stream socket at path (a socket file left there by an earlier run is
+ * replaced; any other file is an error). */
+int open_unix(const char *path)
+{
+	struct sockaddr_un a = { .sun_family = AF_UNIX };
+	if (strlen(path) >= sizeof a.sun_path) {
+		diag("--unix: the path '%s' is longer than a socket's %zu bytes", path, sizeof a.sun_path - 1);
+		exit(EXIT_USAGE);
+	}
+	strcpy(a.sun_path, path);
+	struct stat st;
+	if (lstat(path, &st) == 0) {
+		if (!S_ISSOCK(st.st_mode)) {
+			diag("--unix: '%s' exists and is not a socket: give a path to a new file", path);
+			exit(EXIT_SETUP);
+		}
+		unlink(path);
+	}
+	int s = socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+	if (s < 0 || bind(s, (struct sockaddr *)&a, sizeof a) != 0 || listen(s, 1) != 0) {
+		diag("cannot listen on the socket '%s': %s", path, strerror(errno));
+		exit(EXIT_SETUP);
+	}
+	return s;
+}
+
 /* Waits for one client; returns its fd, or -1 on SIGINT/SIGTERM. */
-int accept_tcp(int ls)
+int accept_client(int ls)
 {
 	for (;;) {
 		if (atomic_load(&g_stop_signal))
@@ -64,7 +92,8 @@ int accept_tcp(int ls)
 			exit(EXIT_SETUP);
 		}
 		int one = 1;
-		setsockopt(c, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+		if (opt.transport == TR_TCP)
+			setsockopt(c, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
 		close(ls);
 		return c;
 	}

@@ -170,6 +170,8 @@ void finish(int code)
 	profiler_finish();
 	if (g_timing)
 		fclose(g_timing);
+	if (opt.unix_path)
+		unlink(opt.unix_path);
 	if (g_vcd_open) {
 		avr_vcd_stop(&g_vcd);
 		avr_vcd_close(&g_vcd);
@@ -303,6 +305,9 @@ int main(int argc, char **argv)
 	if (opt.transport == TR_TCP) {
 		ls = open_tcp(opt.tcp_port, &port);
 		fprintf(url_out, PROG ": listening url=socket://127.0.0.1:%d\n", port);
+	} else if (opt.transport == TR_UNIX) {
+		ls = open_unix(opt.unix_path);
+		fprintf(url_out, PROG ": listening url=unix://%s\n", opt.unix_path);
 	} else {
 		g_fd = open_pty(ptyname, sizeof ptyname);
 		if (opt.bootloader)
@@ -314,8 +319,8 @@ int main(int argc, char **argv)
 		diag("gdb server on port %d: the CPU waits for gdb ('target remote :%d', then 'continue')",
 			opt.gdb_port, opt.gdb_port);
 
-	if (opt.transport == TR_TCP) {
-		g_fd = accept_tcp(ls);
+	if (opt.transport != TR_PTY) {
+		g_fd = accept_client(ls);
 		g_fd_is_socket = 1;
 		/* pyserial's socket:// open() ends by reading and discarding
 		 * whatever has arrived (reset_input_buffer): give it time */

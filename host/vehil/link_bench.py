@@ -339,8 +339,8 @@ def report(f: dict[str, Any]) -> str:
         lines.append(f"wall-clock parts at {f['priority']} (host load beside each figure)")
     if "round_trips" in f:
         lines.append(
-            f"stop-and-wait {PING_SIZE}-byte PINGs on simavr-realtime over loopback TCP (host "
-            f"clock; wire at simavr's {profile.SIMAVR_BITS_PER_BYTE} bits a byte):"
+            f"stop-and-wait {PING_SIZE}-byte PINGs on simavr-realtime over a Unix-domain socket "
+            f"(host clock; wire at simavr's {profile.SIMAVR_BITS_PER_BYTE} bits a byte):"
         )
     for t in f.get("round_trips", []):
         lines.append(
@@ -363,7 +363,7 @@ def report(f: dict[str, Any]) -> str:
         verdict = "held" if q["ended"] == "completed" and q["late"] == 0 else "NOT held"
         lines.append(
             f"{q['scenario']} stop-and-wait at {1e3 / q['sample_time_ms']:.0f} Hz in real time on "
-            f"simavr-realtime over loopback TCP, {q['baud']:,} baud: {verdict}: "
+            f"simavr-realtime over a Unix-domain socket, {q['baud']:,} baud: {verdict}: "
             f"{q['samples']:,} of {q['expected']:,} samples ({q['ended']}), {q['late']} late; "
             f"round trip p50 {q['rtt_p50_ms']:.2f} ms, p99 {q['rtt_p99_ms']:.2f} ms, "
             f"max {q['rtt_max_ms']:.2f} ms; "

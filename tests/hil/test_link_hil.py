@@ -122,11 +122,16 @@ def test_a_profile_sweep_point_measures_without_loss(link) -> None:
     assert link.info.fields["probe_cycles"] > 0
 
 
-def test_simavr_realtime_serves_its_uart_on_loopback_tcp(built) -> None:  # noqa: ANN001
-    """simavr-realtime's transport (SimavrOptions.tcp): the boot INFO kept, and every PING
-    echoed in order at the chip's pace."""
-    with open_board("simavr-realtime", BoardOptions(timeout_s=3.0)) as link:
-        assert type(link.port).__module__ == "vehil.transports.protocol_tcp"
+@pytest.mark.parametrize(
+    ("transport", "module"),
+    [(SimavrOptions(unix=True), "protocol_unix"), (SimavrOptions(tcp=True), "protocol_tcp")],
+)
+def test_simavr_realtime_serves_its_uart_on_a_socket(built, transport, module) -> None:  # noqa: ANN001
+    """simavr-realtime's transports, a Unix-domain socket (its own) and loopback TCP: the
+    boot INFO kept, and every PING echoed in order at the chip's pace."""
+    board = make_board("simavr-realtime", BoardOptions(timeout_s=3.0), transport)
+    with board.session() as link:
+        assert type(link.port).__module__ == f"vehil.transports.{module}"
         assert link.info.fields["baud"] == 1_000_000
         s = run_ping(link, count=50, size=16, window=1)  # raises on a lost or wrong reply
         assert len(s.rtt_s) == 50
@@ -171,3 +176,21 @@ def test_simavr_realtime_logs_where_each_exchange_went_and_runs_above_a_real_tim
         assert read <= feed <= start <= end
         assert abs(read - sent * 1e9) < 0.1e9
         assert c_out - c_in >= 16 * 11 * n  # 11 bits a byte at 1 Mbaud, 16 cycles a µs
+
+
+def test_the_bridge_serves_no_socket_over_a_file_that_is_not_one(built, tmp_path) -> None:  # noqa: ANN001
+    import subprocess
+
+    from vehil.paths import FIRMWARE_ELF, SIMAVR_BRIDGE
+
+    kept = tmp_path / "uart0"
+    kept.write_text("a user's file")
+    proc = subprocess.run(
+        [str(SIMAVR_BRIDGE), "--unix", str(kept), str(FIRMWARE_ELF)],
+        capture_output=True,
+        text=True,
+        timeout=20,
+    )
+    assert proc.returncode == 1
+    assert "exists and is not a socket" in proc.stderr
+    assert kept.read_text() == "a user's file"
