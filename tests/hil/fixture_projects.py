@@ -47,8 +47,11 @@ def project_pytest(target: str, project: Path, cache: Path) -> subprocess.Comple
 
 
 def build(project: Path, cache: Path) -> subprocess.CompletedProcess:
-    """`vehil build` in the project, one worker at a time (they share its cache)."""
+    """`vehil build` in the project, one worker at a time (they share its cache); it must
+    succeed."""
     cache.mkdir(parents=True, exist_ok=True)
     with (cache / ".lock").open("w") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)
-        return vehil_python("-m", "vehil", "build", cwd=project, cache=cache)
+        built = vehil_python("-m", "vehil", "build", cwd=project, cache=cache)
+    assert built.returncode == 0, built.stdout + built.stderr
+    return built

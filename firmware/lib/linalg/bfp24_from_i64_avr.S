@@ -12,26 +12,13 @@
 #define K r12
 #define Q r13
 
+#include "bfp24_neg64.inc"
+
 ; r25:r18 = |r25:r18|, T = its sign
 .macro MAGNITUDE
         bst     r25, 7
         brtc    1f
-        com     r18
-        com     r19
-        com     r20
-        com     r21
-        com     r22
-        com     r23
-        com     r24
-        com     r25
-        subi    r18, 0xFF
-        sbci    r19, 0xFF
-        sbci    r20, 0xFF
-        sbci    r21, 0xFF
-        sbci    r22, 0xFF
-        sbci    r23, 0xFF
-        sbci    r24, 0xFF
-        sbci    r25, 0xFF
+        NEG64
 1:
 .endm
 

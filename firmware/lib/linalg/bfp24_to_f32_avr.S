@@ -6,6 +6,8 @@
 ; avr-gcc's interface: s in r25:r18, e in r17:r16; the float in r25:r22. Uses only
 ; call-used registers (e is copied); r1 is 0 on entry and left 0.
 
+#include "bfp24_neg64.inc"
+
 #define EL r26
 #define EH r27
 
@@ -15,22 +17,7 @@ bfp24_to_f32:
         movw    EL, r16         ; e, then the exponent of r25:r18's unit, less 40
         bst     r25, 7          ; T: the sign
         brtc    1f
-        com     r18             ; the magnitude: -s
-        com     r19
-        com     r20
-        com     r21
-        com     r22
-        com     r23
-        com     r24
-        com     r25
-        subi    r18, 0xFF
-        sbci    r19, 0xFF
-        sbci    r20, 0xFF
-        sbci    r21, 0xFF
-        sbci    r22, 0xFF
-        sbci    r23, 0xFF
-        sbci    r24, 0xFF
-        sbci    r25, 0xFF
+        NEG64                   ; the magnitude: -s
 1:      ldi     r30, 8          ; bytes left to move up
 2:      tst     r25             ; the top byte into r25
         brne    3f
