@@ -266,12 +266,20 @@ static void time_column(const int32_t *psi, const int32_t *e, int32_t *col)
     col[8] = e[8] + (4 * psi[8] + psi[8]);
 }
 
-/* x · 2^up, rounded, saturated. A left shift is checked and done in int32: the AVR
- * multiplies an int64 by a power of two with a full 64-bit product. */
-static int32_t scale_pow2(int64_t x, int16_t up, uint8_t *st)
+/* x · 2^up, rounded (ties away from zero), saturated, in int32 (the AVR shifts an int64
+ * by a library call and multiplies it by a power of two with a full 64-bit product), but
+ * for a shift down past 30 bits. */
+static int32_t scale_pow2(int32_t x, int16_t up, uint8_t *st)
 {
-    if (up <= 0) {
+    if (up < -30) {
         return up < -62 ? 0 : fx_sat(fx_round_shift(x, (int8_t)-up), st);
+    }
+    if (up < 0) { /* fx_round_shift's rounding in 32 bits: |x| + 2^29 < 2^32 */
+        uint8_t down = (uint8_t)-up;
+        uint32_t m = fx_shr32((x < 0 ? (uint32_t)0 - (uint32_t)x : (uint32_t)x) +
+                                  fx_shl32(1u, (uint8_t)(down - 1u)),
+                              down);
+        return x < 0 ? -(int32_t)m : (int32_t)m;
     }
     int32_t v = fx_sat(x, st);
     if (up > 30 || v > (INT32_MAX >> up) || v < (INT32_MIN >> up)) {
