@@ -255,6 +255,47 @@ def test_division_through_a_reciprocal_keeps_its_stated_error(native_lib) -> Non
                 assert got == (2**31 - 1 if exact > 0 else -(2**31)) and status.value & 0x01
 
 
+def _fx_div_exact(a: int, qa: int, b: int, qb: int, q_out: int) -> tuple[int, int]:
+    """fx_div's contract in Python's integers: |a| 2^up rounded (ties away from zero when
+    up < 0), then the magnitude's quotient rounded half up, signed, saturated."""
+    up = q_out + qb - qa
+    if up >= 0:
+        num = a << up
+    else:
+        m = (abs(a) + (1 << (-up - 1))) >> -up
+        num = -m if a < 0 else m
+    q = (abs(num) + abs(b) // 2) // abs(b)
+    negative = (num < 0) != (b < 0)
+    if q > 2**31 - 1 + negative:
+        return (-(2**31) if negative else 2**31 - 1), 0x01
+    return (-q if negative else q), 0
+
+
+def test_fx_div_rounds_the_exact_quotient_half_up_and_saturates(native_lib) -> None:  # noqa: ANN001
+    """Both of its ways: the 32-bit restoring division where |a| < |b| and the shift up
+    is at most 30 (longit's grade ratio, Q16 / Q16 -> Q30), the 64-bit one elsewhere."""
+    f = native_lib.fx_div
+    f.argtypes = [ctypes.c_int32, ctypes.c_uint8, ctypes.c_int32, ctypes.c_uint8, ctypes.c_uint8]
+    f.argtypes += [ctypes.POINTER(ctypes.c_uint8)]
+    f.restype = ctypes.c_int32
+    rng = np.random.default_rng(11)
+    edges = [0, 1, -1, 2, 3, 2**30, 2**31 - 1, -(2**31), -(2**31) + 1]
+    cases = [(a, 16, b, 16, 30) for a in edges for b in edges if b != 0]
+    for _ in range(20_000):
+        a = int(rng.integers(-(2**31), 2**31)) >> int(rng.integers(0, 31))
+        b = int(rng.integers(-(2**31), 2**31)) >> int(rng.integers(0, 31))
+        qa, qb, q_out = (int(q) for q in rng.integers(0, 31, 3))
+        if b != 0 and q_out + qb - qa <= 31:
+            cases.append((a, qa, b, qb, q_out))
+    assert sum(abs(a) < abs(b) and 0 <= qo + qb - qa <= 30 for a, qa, b, qb, qo in cases) > 5000
+    for a, qa, b, qb, q_out in cases:
+        status = ctypes.c_uint8(0)
+        got = f(a, qa, b, qb, q_out, ctypes.byref(status))
+        assert (got, status.value) == _fx_div_exact(a, qa, b, qb, q_out), (a, qa, b, qb, q_out)
+    status = ctypes.c_uint8(0)
+    assert f(5, 0, 0, 0, 0, ctypes.byref(status)) == 2**31 - 1 and status.value & 0x04
+
+
 def test_fx_dot16_sums_int16_products_modulo_2_to_the_32(native_lib) -> None:  # noqa: ANN001
     """The int16 dot product (the AVR's assembly loop has this C twin) against Python's
     integers, on the edges (-2^15 squared) and random operands, wrapping like int32."""
