@@ -85,16 +85,9 @@ void accel_cond_q_from_f32(accel_cond_q_t *q, const accel_cond_f32_t *c, uint8_t
 /* One sample a (m/s²) in; the displacement out (ch->l1 is the filtered acceleration). */
 float accel_cond_step_f32(const accel_cond_f32_t *c, accel_chan_f32_t *ch, float a);
 /* a Q16 in, displacement Q28 out (ch->l1: β times the filtered acceleration, Q26). On the
- * AVR an assembly routine (accel_cond_avr.S) that keeps the channel in registers across the
- * products; the C twin below gives the same bits on the host. */
+ * AVR the ESO's front runs it in assembly (accel_cond_avr.S); this C twin gives the same bits
+ * on the host. */
 int32_t accel_cond_step_q_c(const accel_cond_q_t *c, accel_chan_q_t *ch, int32_t a,
                             uint8_t *status);
-#if defined(__AVR__)
-int32_t accel_cond_step_q_avr(const accel_cond_q_t *c, accel_chan_q_t *ch, int32_t a,
-                              uint8_t *status);
-#define accel_cond_step_q accel_cond_step_q_avr
-#else
-#define accel_cond_step_q accel_cond_step_q_c
-#endif
 
 #endif

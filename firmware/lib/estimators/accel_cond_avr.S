@@ -1,16 +1,15 @@
-; accel_cond_step_q for the AVR build: one channel's fixed-point step (accel_cond.h), the same
-; operations in the same order as its C twin accel_cond_step_q_c (accel_cond.c), so the same
-; bits: eight products by factors (fx_mul_f_avr's, inline: fixmath/fx_step_avr.inc's MULX)
-; and the saturating adds, subtracts and the rescale between them. Written out because in C the flattened ESO step kept almost
-; nothing in registers across the kernel's calls: each add reloaded its operands and each
-; product moved its arguments (~1,650 cycles a channel, ~1,000 of them moves). Here the
-; channel stays in Y, the coefficients in r15:r14, the running value in r5:r2, each
-; product's entry in r7:r6, and the saturating operations flag into r13, ORed into *status
-; once at the end.
+; One channel of accel_cond's fixed-point step (accel_cond.h) for the AVR build, inside the
+; ESO's assembly front (eso_avr.S): the same operations in the same order as the C twin
+; accel_cond_step_q_c (accel_cond.c), so the same bits: eight products by factors
+; (fx_mul_f_avr's, inline: fixmath/fx_step_avr.inc's MULX) and the saturating adds,
+; subtracts and the rescale between them. In C the flattened ESO step kept almost nothing
+; in registers across the kernel's calls: each add reloaded its operands and each product
+; moved its arguments (~1,650 cycles a channel, ~1,000 of them moves).
 ;
-; avr-gcc's interface: c in r25:r24, ch in r23:r22, a in r21:r18, status in r17:r16 (where
-; fx_mul_f_avr's entries take it); the displacement in r25:r22. Saves r2-r7, r13-r15, r28,
-; r29; r1 is left 0.
+; accel_cond_chan_avr, no frame of its own (the front saves what it uses): ch in Y, c in
+; r15:r14, a in r21:r18, status in r17:r16 (where fx_mul_f_avr's entries take it); the
+; displacement in r25:r22. Uses r2-r7 (the running value in r5:r2, each product's entry
+; in r7:r6); counts its saturations in r13, which the front ORs into *status. r1 is left 0.
 
 ; accel_chan_q_t (int32 fields) and accel_cond_q_t (5-byte fx_xfactor_t: m, sh, entry) offsets;
 ; accel_cond.c checks them against the structs
@@ -41,23 +40,9 @@
         ldd     r31, Y+\off+3
 .endm
 
-        .section .text.accel_cond_step_q_avr, "ax", @progbits
-        .global accel_cond_step_q_avr
-accel_cond_step_q_avr:
-        push    r2
-        push    r3
-        push    r4
-        push    r5
-        push    r6
-        push    r7
-        push    r13
-        push    r14
-        push    r15
-        push    r28
-        push    r29
-        movw    r14, r24        ; c
-        movw    r28, r22        ; Y = ch
-        clr     r13
+        .section .text.accel_cond_chan_avr, "ax", @progbits
+        .global accel_cond_chan_avr
+accel_cond_chan_avr:
         ; d2 = (a - x1) - (x1 - x2), with x2 <- x1, x1 <- a
         LDY     22, CH_X1       ; B = x1
         LDT     CH_X2           ; T = x2
@@ -181,21 +166,4 @@ accel_cond_step_q_avr:
         STY     CH_X, 18
         movw    r22, r18
         movw    r24, r20
-        tst     r13             ; the saturations here, into *status
-        breq    4f
-        movw    r30, r16
-        ld      r18, Z
-        ori     r18, SATURATED
-        st      Z, r18
-4:      pop     r29
-        pop     r28
-        pop     r15
-        pop     r14
-        pop     r13
-        pop     r7
-        pop     r6
-        pop     r5
-        pop     r4
-        pop     r3
-        pop     r2
         ret

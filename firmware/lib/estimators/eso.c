@@ -1,6 +1,7 @@
 #include "estimators/eso.h"
 
 #include <math.h>
+#include <stddef.h>
 #include <string.h>
 
 #include "fixmath/fixmath.h"
@@ -53,7 +54,8 @@ __attribute__((noinline)) static uint8_t step_f32(eso_state_t *st, const uint8_t
 
 /* -- fixed point --------------------------------------------------------- */
 
-void eso_observer_q_c(const fx_xfactor_t *k, int32_t *z, int32_t y, uint8_t *st, int32_t acc)
+/* One observer, Euler (eq. 12): z Q28/Q24/Q20, y Q28, acceleration input acc Q20. */
+static void observer_q(const fx_xfactor_t *k, int32_t *z, int32_t y, uint8_t *st, int32_t acc)
 {
     int32_t e = fx_sub(y, z[0], st);
     int32_t z0 = fx_add(z[0], fx_mul_f(z[1], k[ESO_K_T].f, st), st);
@@ -63,11 +65,27 @@ void eso_observer_q_c(const fx_xfactor_t *k, int32_t *z, int32_t y, uint8_t *st,
     z[2] = fx_add(z[2], fx_mul_f(e, k[ESO_K_G3].f, st), st);
 }
 
+void eso_front_q_c(eso_q_t *s, const uint8_t *in, uint8_t *status)
+{
+    int32_t y_s = accel_cond_step_q_c(&s->ecu.cond, &s->ecu.ch[0], get_i32(in), status);
+    int32_t y_us = accel_cond_step_q_c(&s->ecu.cond, &s->ecu.ch[1], get_i32(in + 4), status);
+    observer_q(s->k, s->z + 3, y_us, status, s->acc[1]);
+    observer_q(s->k, s->z, y_s, status, s->acc[0]);
+}
+
 #if defined(__AVR__)
-#define observer_q eso_observer_q_avr
-typedef char eso_k_at[sizeof(fx_xfactor_t) == 5 ? 1 : -1]; /* eso_avr.S's offsets */
+#define eso_front_q eso_front_q_avr
+/* eso_avr.S reads eso_q_t at these offsets */
+#define AT(name, ok) typedef char eso_at_##name[(ok) ? 1 : -1]
+AT(ch0, offsetof(eso_q_t, ecu.ch[0]) == 103);
+AT(ch1, offsetof(eso_q_t, ecu.ch[1]) == 103 + 36);
+AT(cond, offsetof(eso_q_t, ecu.cond) == 0);
+AT(k, offsetof(eso_q_t, k) == 179 && sizeof(fx_xfactor_t) == 5);
+AT(z, offsetof(eso_q_t, z) == 199);
+AT(acc, offsetof(eso_q_t, acc) == 199 + 24);
+#undef AT
 #else
-#define observer_q eso_observer_q_c
+#define eso_front_q eso_front_q_c
 #endif
 
 __attribute__((flatten, noinline)) static uint8_t step_q(eso_state_t *st, const uint8_t *in, uint8_t *out)
@@ -76,16 +94,13 @@ __attribute__((flatten, noinline)) static uint8_t step_q(eso_state_t *st, const 
     const qcar_q_t *m = &s->ecu.model;
     int32_t *z = s->z;
     uint8_t status = 0;
-    int32_t y_s = accel_cond_step_q(&s->ecu.cond, &s->ecu.ch[0], get_i32(in), &status);
-    int32_t y_us = accel_cond_step_q(&s->ecu.cond, &s->ecu.ch[1], get_i32(in + 4), &status);
-    int32_t acc_s = z[2], acc_us = z[5];
+    s->acc[0] = z[2], s->acc[1] = z[5];
     if (s->ecu.ctrl.active || st->variant) { /* else u - f_nl stays 0 */
         int32_t du = fx_sub(s->ecu.u, s->fnl, &status); /* N Q16 */
-        acc_s = fx_add(acc_s, fx_mul_f(du, m->inv_m_s, &status), &status);
-        acc_us = fx_sub(acc_us, fx_mul_f(du, m->inv_m_us, &status), &status);
+        s->acc[0] = fx_add(z[2], fx_mul_f(du, m->inv_m_s, &status), &status);
+        s->acc[1] = fx_sub(z[5], fx_mul_f(du, m->inv_m_us, &status), &status);
     }
-    observer_q(s->k, z, y_s, &status, acc_s);
-    observer_q(s->k, z + 3, y_us, &status, acc_us);
+    eso_front_q(s, in, &status);
     int32_t dx = fx_sub(z[0], z[3], &status), dv = fx_sub(z[1], z[4], &status);
     susp_est_q_t est = {z[0], z[1], z[3], z[4], z[2], z[5], 0};
     s->fnl = st->variant ? qcar_strut_nl_q(m, dx, dv, &status) : 0;

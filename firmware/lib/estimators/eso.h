@@ -32,6 +32,7 @@ typedef struct {
     /* T (Q24 -> Q28 and Q20 -> Q24), then the gains g1, g2, g3 (Q28 -> Q28, Q24, Q20) */
     fx_xfactor_t k[4];
     int32_t z[6];          /* Q28 Q24 Q20, Q28 Q24 Q20 */
+    int32_t acc[2];        /* this step's accelerations into the observers, Q20 */
     int32_t fnl;           /* N, Q16 */
 } eso_q_t;
 
@@ -45,14 +46,13 @@ typedef struct {
 
 enum { ESO_K_T, ESO_K_G1, ESO_K_G2, ESO_K_G3 }; /* eso_q_t's factors k */
 
-/* One observer's step, Euler (eq. 12): z Q28/Q24/Q20, y Q28, acceleration input acc Q20. On
- * the AVR an assembly routine (eso_avr.S) that keeps z, e and the sums in registers across the
- * products; the C twin gives the same bits on the host. */
-void eso_observer_q_c(const fx_xfactor_t *k, int32_t *z, int32_t y, uint8_t *status,
-                      int32_t acc);
+/* The fixed-point step's front: both conditioning channels (a_s, a_us as the SAMPLE carries
+ * them), then both observers' Euler steps (eq. 12) on s->acc. On the AVR an assembly routine
+ * (eso_avr.S with accel_cond_avr.S) that keeps the channels, z, e and the sums in registers
+ * across the products; the C twin gives the same bits on the host. */
+void eso_front_q_c(eso_q_t *s, const uint8_t *in, uint8_t *status);
 #if defined(__AVR__)
-void eso_observer_q_avr(const fx_xfactor_t *k, int32_t *z, int32_t y, uint8_t *status,
-                        int32_t acc);
+void eso_front_q_avr(eso_q_t *s, const uint8_t *in, uint8_t *status);
 #endif
 
 extern const ROM estimator_t eso_estimator;

@@ -1,68 +1,143 @@
-; eso_observer_q for the AVR build: one observer's Euler step (eq. 12; eso.c), the same
-; operations as its C twin eso_observer_q_c, so the same bits: five products by factors
-; (fx_mul_f_avr's, inline: fixmath/fx_step_avr.inc's MULX) and the saturating adds between
-; them. In C the flattened step moved every product's arguments and reloaded every add's
-; operands; here z stays in Y, the factors in r11:r10, the error e in r5:r2, each product's
-; entry in r7:r6, and the partial sums z0 + z1 T, z1 + acc T wait in z.
+; The ESO's fixed-point front for the AVR build (eso.c's eso_front_q): both conditioning
+; channels (accel_cond_avr.S) and both observers' Euler steps (eq. 12), the same operations
+; in the same order as the C twins (accel_cond_step_q_c, eso_observer_q_c), so the same
+; bits. One frame for the four, where four calls from C each saved its registers and set up
+; its arguments; the channels' and the observers' saturations are counted in r13 and ORed
+; into *status once.
 ;
-; avr-gcc's interface: k (the factors T, g1, g2, g3) in r25:r24, z in r23:r22, y in r21:r18,
-; status in r17:r16 (where fx_mul_f_avr's entries take it), acc in r15:r12. Saves r2-r7,
-; r10, r11, r28, r29; r1 is left 0.
+; avr-gcc's interface: s (eso_q_t) in r25:r24, in (the SAMPLE's a_s, a_us) in r23:r22,
+; status in r21:r20 (moved to r17:r16, where fx_mul_f_avr's entries take it). Saves r2-r17,
+; r28, r29; r1 is left 0.
 
 #include "fixmath/fx_step_avr.inc"
 
-#define K_T 0                   /* fx_xfactor_t: 5 bytes (eso.c checks) */
+#define S_CH0 103               /* eso_q_t's offsets (eso.c checks them) */
+#define CH_SIZE 36
+#define S_K 179
+#define S_Z 199
+#define Z_ACC 24                /* acc[2] right after z[6] */
+#define K_T 0                   /* fx_xfactor_t: 5 bytes */
 #define K_G1 5
 #define K_G2 10
 #define K_G3 15
 
-        .section .text.eso_observer_q_avr, "ax", @progbits
-        .global eso_observer_q_avr
-eso_observer_q_avr:
+; One observer, no frame: z in Y, the factors in r15:r14, y in r21:r18, acc in r11:r8. Uses
+; r2-r7 (e in r5:r2, each product's entry in r7:r6) and counts its saturations in r13; the
+; partial sums z0 + z1 T and z1 + acc T wait in z.
+        .section .text.eso_observer_avr, "ax", @progbits
+eso_observer_avr:
+        LDY     22, 0           ; e = y - z0
+        SUB_AB  SATC
+        MOV4    2, 18
+        LDY     22, 4           ; z0 <- z0 + z1 T
+        MULX    14, K_T, 6
+        LDY     18, 0
+        ADD_AB  SATC
+        STY     0, 18
+        MOV4    22, 8           ; z1 <- z1 + acc T
+        MULX    14, K_T, 6
+        LDY     18, 4
+        ADD_AB  SATC
+        STY     4, 18
+        MOV4    22, 2           ; z0 <- z0 + e g1
+        MULX    14, K_G1, 6
+        LDY     18, 0
+        ADD_AB  SATC
+        STY     0, 18
+        MOV4    22, 2           ; z1 <- z1 + e g2
+        MULX    14, K_G2, 6
+        LDY     18, 4
+        ADD_AB  SATC
+        STY     4, 18
+        MOV4    22, 2           ; z2 <- z2 + e g3
+        MULX    14, K_G3, 6
+        LDY     18, 8
+        ADD_AB  SATC
+        STY     8, 18
+        ret
+
+        .section .text.eso_front_q_avr, "ax", @progbits
+        .global eso_front_q_avr
+eso_front_q_avr:
         push    r2
         push    r3
         push    r4
         push    r5
         push    r6
         push    r7
+        push    r8
+        push    r9
         push    r10
         push    r11
+        push    r12
+        push    r13
+        push    r14
+        push    r15
+        push    r16
+        push    r17
         push    r28
         push    r29
-        movw    r10, r24        ; k
-        movw    r28, r22        ; Y = z
-        LDY     22, 0           ; e = y - z0
-        SUB_AB  SATS
-        MOV4    2, 18
-        LDY     22, 4           ; z0 <- z0 + z1 T
-        MULX    10, K_T, 6
-        LDY     18, 0
-        ADD_AB  SATS
-        STY     0, 18
-        MOV4    22, 12          ; z1 <- z1 + acc T
-        MULX    10, K_T, 6
-        LDY     18, 4
-        ADD_AB  SATS
-        STY     4, 18
-        MOV4    22, 2           ; z0 <- z0 + e g1
-        MULX    10, K_G1, 6
-        LDY     18, 0
-        ADD_AB  SATS
-        STY     0, 18
-        MOV4    22, 2           ; z1 <- z1 + e g2
-        MULX    10, K_G2, 6
-        LDY     18, 4
-        ADD_AB  SATS
-        STY     4, 18
-        MOV4    22, 2           ; z2 <- z2 + e g3
-        MULX    10, K_G3, 6
-        LDY     18, 8
-        ADD_AB  SATS
-        STY     8, 18
-        pop     r29
+        movw    r16, r20        ; status, where fx_mul_f_avr's entries take it
+        movw    r8, r24         ; s
+        movw    r10, r22        ; in
+        clr     r13
+        movw    r14, r24        ; the conditioning's coefficients: s's first field
+        movw    r28, r24        ; Y = s->ecu.ch[0]
+        subi    r28, lo8(-(S_CH0))
+        sbci    r29, hi8(-(S_CH0))
+        movw    r30, r10        ; a_s
+        ld      r18, Z+
+        ld      r19, Z+
+        ld      r20, Z+
+        ld      r21, Z+
+        call    accel_cond_chan_avr
+        push    r25             ; y_s waits on the stack
+        push    r24
+        push    r23
+        push    r22
+        adiw    r28, CH_SIZE    ; Y = s->ecu.ch[1]
+        movw    r30, r10        ; a_us
+        ldd     r18, Z+4
+        ldd     r19, Z+5
+        ldd     r20, Z+6
+        ldd     r21, Z+7
+        call    accel_cond_chan_avr
+        MOV4    18, 22          ; y_us
+        movw    r14, r8         ; the factors: s->k
+        ldi     r30, lo8(S_K)
+        ldi     r31, hi8(S_K)
+        add     r14, r30
+        adc     r15, r31
+        movw    r28, r8         ; Y = s->z + 3: the unsprung observer first
+        subi    r28, lo8(-(S_Z + 12))
+        sbci    r29, hi8(-(S_Z + 12))
+        LDY     8, Z_ACC - 12 + 4
+        call    eso_observer_avr
+        pop     r18             ; y_s
+        pop     r19
+        pop     r20
+        pop     r21
+        sbiw    r28, 12         ; Y = s->z
+        LDY     8, Z_ACC
+        call    eso_observer_avr
+        tst     r13             ; the saturations, into *status
+        breq    1f
+        movw    r30, r16
+        ld      r18, Z
+        ori     r18, SATURATED
+        st      Z, r18
+1:      pop     r29
         pop     r28
+        pop     r17
+        pop     r16
+        pop     r15
+        pop     r14
+        pop     r13
+        pop     r12
         pop     r11
         pop     r10
+        pop     r9
+        pop     r8
         pop     r7
         pop     r6
         pop     r5
