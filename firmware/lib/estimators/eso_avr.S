@@ -1,7 +1,7 @@
 ; The ESO's fixed-point front for the AVR build (eso.c's eso_front_q): both conditioning
 ; channels (accel_cond_avr.S) and both observers' Euler steps (eq. 12), the same operations
-; in the same order as the C twins (accel_cond_step_q_c, eso_observer_q_c), so the same
-; bits. One frame for the four, where four calls from C each saved its registers and set up
+; in the same order as the C twin (eso_front_q_c: accel_cond_step_q_c, observer_q), so the
+; same bits. One frame for the four, where four calls from C each saved its registers and set up
 ; its arguments; the channels' and the observers' saturations are counted in r13 and ORed
 ; into *status once.
 ;
@@ -21,6 +21,14 @@
 #define K_G2 10
 #define K_G3 15
 
+; z at Y + off <- itself + B times the factor at k + koff, saturated
+.macro MAC off, koff
+        MULX    14, \koff, 6
+        LDY     18, \off
+        ADD_AB  SATC
+        STY     \off, 18
+.endm
+
 ; One observer, no frame: z in Y, the factors in r15:r14, y in r21:r18, acc in r11:r8. Uses
 ; r2-r7 (e in r5:r2, each product's entry in r7:r6) and counts its saturations in r13; the
 ; partial sums z0 + z1 T and z1 + acc T wait in z.
@@ -29,52 +37,22 @@ eso_observer_avr:
         LDY     22, 0           ; e = y - z0
         SUB_AB  SATC
         MOV4    2, 18
-        LDY     22, 4           ; z0 <- z0 + z1 T
-        MULX    14, K_T, 6
-        LDY     18, 0
-        ADD_AB  SATC
-        STY     0, 18
-        MOV4    22, 8           ; z1 <- z1 + acc T
-        MULX    14, K_T, 6
-        LDY     18, 4
-        ADD_AB  SATC
-        STY     4, 18
-        MOV4    22, 2           ; z0 <- z0 + e g1
-        MULX    14, K_G1, 6
-        LDY     18, 0
-        ADD_AB  SATC
-        STY     0, 18
-        MOV4    22, 2           ; z1 <- z1 + e g2
-        MULX    14, K_G2, 6
-        LDY     18, 4
-        ADD_AB  SATC
-        STY     4, 18
-        MOV4    22, 2           ; z2 <- z2 + e g3
-        MULX    14, K_G3, 6
-        LDY     18, 8
-        ADD_AB  SATC
-        STY     8, 18
+        LDY     22, 4
+        MAC     0, K_T          ; z0 <- z0 + z1 T
+        MOV4    22, 8
+        MAC     4, K_T          ; z1 <- z1 + acc T
+        MOV4    22, 2
+        MAC     0, K_G1         ; z0 <- z0 + e g1
+        MOV4    22, 2
+        MAC     4, K_G2         ; z1 <- z1 + e g2
+        MOV4    22, 2
+        MAC     8, K_G3         ; z2 <- z2 + e g3
         ret
 
         .section .text.eso_front_q_avr, "ax", @progbits
         .global eso_front_q_avr
 eso_front_q_avr:
-        push    r2
-        push    r3
-        push    r4
-        push    r5
-        push    r6
-        push    r7
-        push    r8
-        push    r9
-        push    r10
-        push    r11
-        push    r12
-        push    r13
-        push    r14
-        push    r15
-        push    r16
-        push    r17
+        PUSH_RANGE 2, 17
         push    r28
         push    r29
         movw    r16, r20        ; status, where fx_mul_f_avr's entries take it
@@ -128,20 +106,5 @@ eso_front_q_avr:
         st      Z, r18
 1:      pop     r29
         pop     r28
-        pop     r17
-        pop     r16
-        pop     r15
-        pop     r14
-        pop     r13
-        pop     r12
-        pop     r11
-        pop     r10
-        pop     r9
-        pop     r8
-        pop     r7
-        pop     r6
-        pop     r5
-        pop     r4
-        pop     r3
-        pop     r2
+        POP_RANGE 2, 17
         ret
