@@ -94,10 +94,7 @@ static int16_t weigh_f32(const stlqf_f32_t *f, const float *col, uint32_t *x)
     if (e == BFP24_NOT_FINITE) {
         return e; /* every dot product with x is a NaN */
     }
-    for (uint8_t i = 0; i < STLQF_ROWS; i++) {
-        uint8_t left = (uint8_t)(STLQF_ROWS - i);
-        wide[i] = bfp24_dot(f->band[i], &c[i], left < 3u ? left : 3u);
-    }
+    bfp24_band(&f->band[0][0], c, STLQF_ROWS, wide);
     return (int16_t)(e + f->e_band + bfp24_from_i64(wide, STLQF_ROWS, x));
 }
 

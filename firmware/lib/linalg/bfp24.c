@@ -84,6 +84,14 @@ int64_t bfp24_dot_c(const uint32_t *a, const uint32_t *b, uint8_t n)
     return s;
 }
 
+void bfp24_band_c(const uint32_t *r, const uint32_t *c, uint8_t rows, int64_t *out)
+{
+    for (uint8_t i = 0; i < rows; i++) {
+        uint8_t left = (uint8_t)(rows - i);
+        out[i] = bfp24_dot_c(r + 3u * i, c + i, left < 3u ? left : 3u);
+    }
+}
+
 float bfp24_to_f32_c(int64_t s, int16_t e)
 {
     /* the magnitude's bytes, least significant first, after four zero bytes */

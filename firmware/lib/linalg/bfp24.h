@@ -35,6 +35,17 @@ int64_t bfp24_dot(const uint32_t *a, const uint32_t *b, uint8_t n);
 #define bfp24_dot bfp24_dot_c
 #endif
 
+/* out[i] = Σ r[3 i + d] c[i + d] over d < min(3, rows - i), exact: a banded matrix (three
+ * words a row, the last two rows' extra words unread) times a block. On the AVR
+ * bfp24_dot's loop row by row within one call (bfp24_dot_avr.S); the C twin gives the same
+ * bits. */
+void bfp24_band_c(const uint32_t *r, const uint32_t *c, uint8_t rows, int64_t *out);
+#if defined(__AVR__)
+void bfp24_band(const uint32_t *r, const uint32_t *c, uint8_t rows, int64_t *out);
+#else
+#define bfp24_band bfp24_band_c
+#endif
+
 /* s 2^e rounded to nearest-even float32 (|e| < 2^14): ±inf past FLT_MAX, ±0 below
  * FLT_MIN (no subnormal results). On the AVR in assembly (bfp24_to_f32_avr.S, ~60-110
  * cycles, where the C takes ~430); the C twin gives the same bits. */
