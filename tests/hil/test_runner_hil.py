@@ -9,6 +9,8 @@ from vehil import record, runner, scenario
 from vehil.boards import BoardOptions
 from vehil.boards.simavr import SimavrBoard
 
+from live_run import wait_for_samples
+
 pytestmark = pytest.mark.hil
 
 
@@ -81,7 +83,6 @@ def test_ctrl_c_stops_a_run_cleanly_and_keeps_what_was_recorded(tmp_path, built)
     import signal
     import subprocess
     import sys
-    import time
 
     out = tmp_path / "run"
     proc = subprocess.Popen(
@@ -91,10 +92,7 @@ def test_ctrl_c_stops_a_run_cleanly_and_keeps_what_was_recorded(tmp_path, built)
         text=True,
         preexec_fn=_ignore_sigint,
     )
-    deadline = time.monotonic() + 60  # a loaded CI machine starts slowly
-    while not (out / "run.arrow").exists() and time.monotonic() < deadline:
-        time.sleep(0.05)
-    time.sleep(1.0)
+    wait_for_samples(proc, out)
     proc.send_signal(signal.SIGINT)
     output, _ = proc.communicate(timeout=60)
     assert proc.returncode == 130, output

@@ -12,21 +12,19 @@ import pytest
 
 from vehil import record
 
+from live_run import wait_for_samples
+
 pytestmark = pytest.mark.hil
 
 
 def _start_run(out: Path) -> subprocess.Popen:
-    """`vehil run sine` on simavr at real time (20 s), once its first samples are in."""
+    """`vehil run sine` on simavr at real time (20 s), once its first samples are recorded."""
     proc = subprocess.Popen(
         [sys.executable, "-m", "vehil", "run", "sine", "--board", "simavr", "--realtime",
          "--out", str(out)],
         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
     )  # fmt: skip
-    deadline = time.monotonic() + 30
-    while not (out / "run.arrow").exists():
-        assert proc.poll() is None and time.monotonic() < deadline, "the run did not start"
-        time.sleep(0.05)
-    time.sleep(1.0)
+    wait_for_samples(proc, out)
     return proc
 
 
