@@ -4,12 +4,11 @@ import threading
 
 import numpy as np
 import pytest
+from live_run import wait_for_samples
 
 from vehil import record, runner, scenario
 from vehil.boards import BoardOptions
 from vehil.boards.simavr import SimavrBoard
-
-from live_run import wait_for_samples
 
 pytestmark = pytest.mark.hil
 

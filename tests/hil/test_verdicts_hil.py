@@ -9,10 +9,9 @@ import time
 from pathlib import Path
 
 import pytest
+from live_run import wait_for_samples
 
 from vehil import record
-
-from live_run import wait_for_samples
 
 pytestmark = pytest.mark.hil
 
