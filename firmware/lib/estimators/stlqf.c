@@ -343,6 +343,17 @@ static inline __attribute__((always_inline)) void shift_entries(const int32_t *i
     }
 }
 
+/* 2^n for n < 8, shifted in a byte (a shift of an int by a run-time count loops in 16
+ * bits on the AVR) */
+static uint8_t byte_bit(uint8_t n)
+{
+    uint8_t v = 1;
+    while (n-- != 0u) {
+        v = (uint8_t)(v << 1);
+    }
+    return v;
+}
+
 /* in[0..n) · 2^-k (rounded half up) as int16 with |out| <= limit (14 bits) and as many
  * bits as that allows; returns k (0 for zeros). int32: the AVR's int64 shifts cost a
  * call each; the shift split into whole bytes and bits once, not per entry. */
@@ -365,9 +376,10 @@ static int8_t normalize(const int32_t *in, int16_t *out, uint8_t n, int32_t limi
     }
     /* k <= 16 (|in| < 2^30): 2^(k-1) in 16 bits. Rounding up would pass the limit when
      * peak >= (2 limit + 1) 2^(k-1), a 16 × 16 product rather than a shift of peak. */
-    uint16_t half16 = (uint16_t)1 << (k - 1);
+    uint8_t bit = byte_bit((uint8_t)(k - 1) & 7u);
+    uint16_t half16 = (uint8_t)(k - 1) & 8u ? (uint16_t)((uint16_t)bit << 8) : bit;
     int32_t half = half16;
-    if (peak >= (uint32_t)(uint16_t)(2 * limit + 1) * half16) {
+    if (peak >= fx_umul16x16((uint16_t)(2 * limit + 1), half16)) {
         k++;
         half *= 2;
     }
@@ -375,7 +387,7 @@ static int8_t normalize(const int32_t *in, int16_t *out, uint8_t n, int32_t limi
      * whose top is the result: 8 × 8 and 16 × 8 hardware products, where a shift by a
      * count known only at run time loops a bit at a time on the AVR. */
     uint8_t bytes = (uint8_t)((uint8_t)(k - 1) >> 3);
-    uint8_t m = (uint8_t)(1u << (7u - ((uint8_t)(k - 1) & 7u))); /* 2^(8 - bits) */
+    uint8_t m = byte_bit((uint8_t)(7u - ((uint8_t)(k - 1) & 7u))); /* 2^(8 - bits) */
     if (bytes == 1u) { /* the usual k (9 to 16), its byte shift a constant */
         shift_entries(in, out, n, half, 1u, m);
     } else {
