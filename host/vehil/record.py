@@ -69,6 +69,13 @@ def columns(
     return pa.schema(fields)
 
 
+def load_conversions() -> None:
+    """Loads what pyarrow needs to make arrays from Python values: its first such array
+    imports pandas (0.15-0.5 s, more on a loaded host), which a run does before it starts,
+    not in its first batch, in the middle of a real-time loop (141 ms at sample 999)."""
+    pa.array([0.0])
+
+
 class Recorder:
     """Appends rows; flushes a batch every BATCH_ROWS rows; `close(end)` seals the file."""
 
@@ -90,10 +97,6 @@ class Recorder:
         )
         self._rows: dict[str, list[Any]] = {name: [] for name in self.schema.names}
         self.rows_written = 0
-        # The batch that ends the file, made now: pyarrow's first array from Python values
-        # imports pandas (0.15-0.5 s), which must not land in the first flush, in the middle
-        # of a real-time run.
-        self._end = pa.record_batch({n: [] for n in self.schema.names}, schema=self.schema)
 
     def append(self, row: dict[str, Any]) -> None:
         for name, values in self._rows.items():
@@ -116,9 +119,8 @@ class Recorder:
     def close(self, end: dict[str, Any]) -> None:
         self.flush()
         end = {**end, "samples": self.rows_written}
-        self._writer.write_batch(
-            self._end, custom_metadata={"end": json.dumps(end, default=_jsonable)}
-        )
+        empty = pa.record_batch({n: [] for n in self.schema.names}, schema=self.schema)
+        self._writer.write_batch(empty, custom_metadata={"end": json.dumps(end, default=_jsonable)})
         self._writer.close()
         self._sink.close()
 

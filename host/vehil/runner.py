@@ -303,6 +303,7 @@ def run(
     the returned Run says how it ended, and the recording holds what was done. A board
     that cannot be started raises BoardStartError: there was no run."""
     console = console or make_console(stderr=True)
+    record.load_conversions()
     src = source.open_source(scenario)
     options = BoardOptions(timeout_s=timeout_s)
     target = board if isinstance(board, Board) else make_board(board, options)

@@ -76,16 +76,17 @@ def test_other_files_are_refused_by_name(tmp_path) -> None:  # noqa: ANN001
         record.read(path)
 
 
-def test_a_recorder_loads_what_its_batches_need_before_the_first_one(tmp_path) -> None:  # noqa: ANN001
+def test_once_conversions_are_loaded_a_first_batch_loads_no_module(tmp_path) -> None:  # noqa: ANN001
     """pyarrow imports pandas on its first array made from Python values (0.15-0.5 s): in
-    a fresh interpreter, making the recorder loads it, so the first flush, in the middle
-    of a real-time run, loads no module."""
+    a fresh interpreter, once record.load_conversions() has run (vehil.runner does before
+    a run starts), the first flush, in the middle of a real-time run, loads no module."""
     import subprocess
     import sys
 
     script = f"""
 import sys
 from vehil import record
+record.load_conversions()
 schema = record.columns(["u"], ["y"], ["y"])
 rec = record.Recorder(__import__("pathlib").Path({str(tmp_path / "r.arrow")!r}), schema, {{}})
 before = set(sys.modules)
