@@ -244,7 +244,6 @@ static const uint8_t row_q[3] = {24 + 6, 18 + 6, 14 + 6};
 #define THETA_Q 16 /* θ's entries in FIXED */
 #define DELTA_Q 24 /* the step from the prior, in the solve's units */
 
-static uint64_t magnitude(int64_t x) { return x < 0 ? (uint64_t)0 - (uint64_t)x : (uint64_t)x; }
 
 /* The time column τ ψ̃ + e down the window, τ = j - CENTRE, each product by its constant
  * τ in shifts and adds (an int32 product is a library call on the AVR). */
@@ -313,6 +312,12 @@ static uint32_t high_word(uint64_t v)
 #else
     return (uint32_t)(v >> 32);
 #endif
+}
+
+/* |x|, its sign read from the top word (avr-gcc compares an int64 by a library call) */
+static uint64_t magnitude(int64_t x)
+{
+    return (int32_t)high_word((uint64_t)x) < 0 ? (uint64_t)0 - (uint64_t)x : (uint64_t)x;
 }
 
 /* x 2^-k rounded half up (1 <= k <= 62) for a result below 2^28: one 64-bit shift to the
@@ -400,10 +405,9 @@ static int8_t normalize(const int32_t *in, int16_t *out, uint8_t n, int32_t limi
  * for zeros. */
 static int8_t normalize64(const int64_t *in, int32_t *out, uint8_t n)
 {
-    uint64_t peak = 0;
+    uint64_t peak = 0; /* the magnitudes' OR: the largest one's bit length, no comparisons */
     for (uint8_t i = 0; i < n; i++) {
-        uint64_t mag = magnitude(in[i]);
-        peak = mag > peak ? mag : peak;
+        peak |= magnitude(in[i]);
     }
     uint32_t top = high_word(peak);
     int8_t k = peak == 0u ? 0
