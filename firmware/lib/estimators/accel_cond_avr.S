@@ -8,8 +8,8 @@
 ;
 ; accel_cond_chan_avr, no frame of its own (the front saves what it uses): ch in Y, c in
 ; r15:r14, a in r21:r18, status in r17:r16 (where fx_mul_f_avr's entries take it); the
-; displacement in r25:r22. Uses r2-r7 (the running value in r5:r2, each product's entry
-; in r7:r6); counts its saturations in r13, which the front ORs into *status. r1 is left 0.
+; displacement in r25:r22. Uses r2-r11 (the running value in r5:r2, each product's entry
+; in r7:r6, a state kept across a product in r11:r8); counts its saturations in r13, which the front ORs into *status. r1 is left 0.
 
 ; accel_chan_q_t (int32 fields) and accel_cond_q_t (5-byte fx_xfactor_t: m, sh, entry) offsets;
 ; accel_cond.c checks them against the structs
@@ -78,19 +78,21 @@ accel_cond_chan_avr:
 3:      MOV4    2, 18
         ; dh = ((dh - dh c2) + S) - h1 c12
         LDY     22, CH_DH
+        MOV4    8, 22           ; dh kept
         MULX    14, C_C2, 6
-        LDY     18, CH_DH
+        MOV4    18, 8
         SUB_AB  SATC
         ADD_AR  SATC, 2
         MOV4    2, 18
         LDY     22, CH_H1
+        MOV4    8, 22           ; h1 kept
         MULX    14, C_C12, 6
         MOV4    18, 2
         SUB_AB  SATC
         STY     CH_DH, 18
         ; h = h1 + dh; the low-pass's sum (h >> 2) + (h1 >> 1) + (h2 >> 2), exact in int32;
         ; h2 <- h1, h1 <- h
-        LDY     22, CH_H1       ; B = h1
+        MOV4    22, 8           ; B = h1
         ADD_AB  SATC                  ; A = h
         LDT     CH_H2           ; T = h2
         STY     CH_H2, 22
@@ -120,6 +122,7 @@ accel_cond_chan_avr:
         ; the low-pass: l = ((sum b0 + (l1 - l2)) + (l1 - l1 p1)) + l2 p2
         MULX    14, C_B0, 6
         LDY     18, CH_L1
+        MOV4    8, 18           ; l1 kept
         LDT     CH_L2
         sub     r18, r26
         sbc     r19, r27
@@ -128,9 +131,9 @@ accel_cond_chan_avr:
         SATC    18, 19, 20, 21
         ADD_AB  SATC
         MOV4    2, 18
-        LDY     22, CH_L1
+        MOV4    22, 8
         MULX    14, C_P1, 6
-        LDY     18, CH_L1
+        MOV4    18, 8
         SUB_AB  SATC
         ADD_AR  SATC, 2
         MOV4    2, 18
@@ -139,27 +142,29 @@ accel_cond_chan_avr:
         MOV4    18, 2
         ADD_AB  SATC                  ; A = l
         ; v = (v + (l + l1)) - v γ, with l2 <- l1, l1 <- l
-        LDY     22, CH_L1
+        MOV4    22, 8           ; B = l1
         STY     CH_L2, 22
         STY     CH_L1, 18
         ADD_AB  SATC
         LDY     22, CH_V        ; B = v
+        MOV4    8, 22           ; v kept
         ADD_AB  SATC
         MOV4    2, 18
         MULX    14, C_GAMMA, 6         ; B = v γ
         MOV4    18, 2
         SUB_AB  SATC                  ; A = v'
         ; x = (x + (v' + v) β) - x γ, with v <- v'
-        LDY     22, CH_V
+        MOV4    22, 8           ; B = v
         STY     CH_V, 18
         ADD_AB  SATC
         movw    r22, r18
         movw    r24, r20
         MULX    14, C_BETA, 6
         LDY     18, CH_X
+        MOV4    8, 18           ; x kept
         ADD_AB  SATC
         MOV4    2, 18
-        LDY     22, CH_X
+        MOV4    22, 8
         MULX    14, C_GAMMA, 6
         MOV4    18, 2
         SUB_AB  SATC

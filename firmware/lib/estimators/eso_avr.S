@@ -56,39 +56,39 @@ eso_front_q_avr:
         push    r28
         push    r29
         movw    r16, r20        ; status, where fx_mul_f_avr's entries take it
-        movw    r8, r24         ; s
-        movw    r10, r22        ; in
         clr     r13
         movw    r14, r24        ; the conditioning's coefficients: s's first field
         movw    r28, r24        ; Y = s->ecu.ch[0]
         subi    r28, lo8(-(S_CH0))
         sbci    r29, hi8(-(S_CH0))
-        movw    r30, r10        ; a_s
+        movw    r30, r22        ; a_s
+        push    r31             ; in waits on the stack: the channels use r8-r11
+        push    r30
         ld      r18, Z+
         ld      r19, Z+
         ld      r20, Z+
         ld      r21, Z+
         call    accel_cond_chan_avr
+        pop     r30             ; a_us
+        pop     r31
         push    r25             ; y_s waits on the stack
         push    r24
         push    r23
         push    r22
         adiw    r28, CH_SIZE    ; Y = s->ecu.ch[1]
-        movw    r30, r10        ; a_us
         ldd     r18, Z+4
         ldd     r19, Z+5
         ldd     r20, Z+6
         ldd     r21, Z+7
         call    accel_cond_chan_avr
         MOV4    18, 22          ; y_us
-        movw    r14, r8         ; the factors: s->k
-        ldi     r30, lo8(S_K)
-        ldi     r31, hi8(S_K)
+        movw    r14, r28        ; the factors: s->k, from Y = s->ecu.ch[1]
+        ldi     r30, lo8(S_K - S_CH0 - CH_SIZE)
+        ldi     r31, hi8(S_K - S_CH0 - CH_SIZE)
         add     r14, r30
         adc     r15, r31
-        movw    r28, r8         ; Y = s->z + 3: the unsprung observer first
-        subi    r28, lo8(-(S_Z + 12))
-        sbci    r29, hi8(-(S_Z + 12))
+        subi    r28, lo8(-(S_Z + 12 - S_CH0 - CH_SIZE)) ; Y = s->z + 3: the unsprung observer first
+        sbci    r29, hi8(-(S_Z + 12 - S_CH0 - CH_SIZE))
         LDY     8, Z_ACC - 12 + 4
         call    eso_observer_avr
         pop     r18             ; y_s
