@@ -32,8 +32,10 @@
 .endm
 
 ; The entry for shift n: floor((P + 2^(n-1)) 2^-n) = floor((Q + 2^(s-1)) 2^-s), s = n - 8.
+; In .lowtext, which the linker puts below 128 KB: ICALL and IJMP reach it directly, where
+; gs() of an entry past 128 KB goes through a stub's JMP (3 cycles a product).
 .macro MULF_ENTRY n
-        .section .text.fx_mul_f\n, "ax", @progbits
+        .section .lowtext.fx_mul_f\n, "ax", @progbits
         .global fx_mul_f\n     ; named, so that profiles name it
 fx_mul_f\n:
         .set    s, \n - 8
