@@ -29,20 +29,34 @@
         STY     \off, 18
 .endm
 
-; One observer, no frame: z in Y, the factors in r15:r14, y in r21:r18, acc in r11:r8. Uses
-; r2-r7 (e in r5:r2, each product's entry in r7:r6) and counts its saturations in r13; the
-; partial sums z0 + z1 T and z1 + acc T wait in z.
+; One observer, no frame: z in Y, the factors in r15:r14, y in r5:r2, acc in r11:r8. Uses
+; r2-r11 (e in r5:r2, each product's entry in r7:r6, z1 and then z0 + z1 T in r11:r8) and
+; counts its saturations in r13. The order of eq. 12's independent terms differs from the
+; C twin's (z1 + acc T first, which frees acc's registers), their bits do not: each term is
+; the same fx_add of the same operands.
         .section .text.eso_observer_avr, "ax", @progbits
 eso_observer_avr:
-        LDY     22, 0           ; e = y - z0
-        SUB_AB  SATC
-        MOV4    2, 18
-        LDY     22, 4
-        MAC     0, K_T          ; z0 <- z0 + z1 T
         MOV4    22, 8
-        MAC     4, K_T          ; z1 <- z1 + acc T
+        MULX    14, K_T, 6      ; B = acc T
+        LDY     18, 4
+        MOV4    8, 18           ; z1 kept
+        ADD_AB  SATC
+        STY     4, 18           ; z1 <- z1 + acc T
+        MOV4    22, 8
+        MULX    14, K_T, 6      ; B = z1 T
+        LDY     18, 0           ; A = z0
+        sub     r2, r18         ; e = y - z0
+        sbc     r3, r19
+        sbc     r4, r20
+        sbc     r5, r21
+        SATC    2, 3, 4, 5
+        ADD_AB  SATC
+        MOV4    8, 18           ; z0 + z1 T kept
         MOV4    22, 2
-        MAC     0, K_G1         ; z0 <- z0 + e g1
+        MULX    14, K_G1, 6
+        MOV4    18, 8
+        ADD_AB  SATC
+        STY     0, 18           ; z0 <- z0 + z1 T + e g1
         MOV4    22, 2
         MAC     4, K_G2         ; z1 <- z1 + e g2
         MOV4    22, 2
@@ -81,7 +95,7 @@ eso_front_q_avr:
         ldd     r20, Z+6
         ldd     r21, Z+7
         call    accel_cond_chan_avr
-        MOV4    18, 22          ; y_us
+        MOV4    2, 22           ; y_us
         movw    r14, r28        ; the factors: s->k, from Y = s->ecu.ch[1]
         ldi     r30, lo8(S_K - S_CH0 - CH_SIZE)
         ldi     r31, hi8(S_K - S_CH0 - CH_SIZE)
@@ -91,10 +105,10 @@ eso_front_q_avr:
         sbci    r29, hi8(-(S_Z + 12 - S_CH0 - CH_SIZE))
         LDY     8, Z_ACC - 12 + 4
         call    eso_observer_avr
-        pop     r18             ; y_s
-        pop     r19
-        pop     r20
-        pop     r21
+        pop     r2              ; y_s
+        pop     r3
+        pop     r4
+        pop     r5
         sbiw    r28, 12         ; Y = s->z
         LDY     8, Z_ACC
         call    eso_observer_avr
