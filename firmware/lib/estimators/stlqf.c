@@ -329,76 +329,14 @@ static int32_t round_down64(int64_t x, uint8_t k)
     return (y >> 1) + (y & 1);
 }
 
-/* out = (in + half) 2^-(8 bytes + bits) for m = 2^(8 - bits), 1 <= bits <= 8, each
- * result within int16 (normalize's last step). */
-static inline __attribute__((always_inline)) void shift_entries(const int32_t *in, int16_t *out,
-                                                                uint8_t n, int32_t half,
-                                                                uint8_t bytes, uint8_t m)
-{
-    for (uint8_t i = 0; i < n; i++) { /* |in| < 2^30 */
-        int32_t v = in[i] + half;
-        for (uint8_t b = 0; b < bytes; b++) {
-            v >>= 8;
-        }
-        /* v >> bits fits int16, so v m 2^-8 = (v >> 8) m + (v's low byte) m 2^-8 does
-         * too, and its low 16 bits are the result */
-        uint16_t hi = (uint16_t)(int16_t)(v >> 8);
-        uint8_t lo = (uint8_t)v;
-        out[i] = (int16_t)(uint16_t)(hi * m + (uint16_t)((uint16_t)lo * m >> 8));
-    }
-}
-
-/* 2^n for n < 8, shifted in a byte (a shift of an int by a run-time count loops in 16
- * bits on the AVR) */
-static uint8_t byte_bit(uint8_t n)
-{
-    uint8_t v = 1;
-    while (n-- != 0u) {
-        v = (uint8_t)(v << 1);
-    }
-    return v;
-}
-
 /* in[0..n) · 2^-k (rounded half up) as int16 with |out| <= limit (14 bits) and as many
- * bits as that allows; returns k (0 for zeros). int32: the AVR's int64 shifts cost a
- * call each; the shift split into whole bytes and bits once, not per entry. */
-#define LIMIT_BITS 14
+ * bits as that allows; returns k (0 for zeros): fixmath's fx_norm16, in assembly on the
+ * AVR. */
 typedef char stlqf_limits_are_14_bits[(COL_LIMIT >> 13) == 1 && (X_LIMIT >> 13) == 1 ? 1 : -1];
 
 static int8_t normalize(const int32_t *in, int16_t *out, uint8_t n, int32_t limit)
 {
-    uint32_t peak = 0;
-    for (uint8_t i = 0; i < n; i++) {
-        uint32_t mag = in[i] < 0 ? (uint32_t)0 - (uint32_t)in[i] : (uint32_t)in[i];
-        peak = mag > peak ? mag : peak;
-    }
-    int8_t k = peak != 0u ? (int8_t)(longit_bit_length(peak) - LIMIT_BITS) : 0;
-    if (k <= 0) { /* |in| < 2^14: a shift up in int16 */
-        for (uint8_t i = 0; i < n; i++) {
-            out[i] = (int16_t)((uint16_t)in[i] << -k);
-        }
-        return k;
-    }
-    /* k <= 16 (|in| < 2^30): 2^(k-1) in 16 bits. Rounding up would pass the limit when
-     * peak >= (2 limit + 1) 2^(k-1), a 16 × 16 product rather than a shift of peak. */
-    uint8_t bit = byte_bit((uint8_t)(k - 1) & 7u);
-    uint16_t half16 = (uint8_t)(k - 1) & 8u ? (uint16_t)((uint16_t)bit << 8) : bit;
-    int32_t half = half16;
-    if (peak >= fx_umul16x16((uint16_t)(2 * limit + 1), half16)) {
-        k++;
-        half *= 2;
-    }
-    /* (v + 2^(k-1)) >> k as whole bytes, then 1 to 8 bits as a product by 2^(8 - bits)
-     * whose top is the result: 8 × 8 and 16 × 8 hardware products, where a shift by a
-     * count known only at run time loops a bit at a time on the AVR. */
-    uint8_t bytes = (uint8_t)((uint8_t)(k - 1) >> 3);
-    uint8_t m = byte_bit((uint8_t)(7u - ((uint8_t)(k - 1) & 7u))); /* 2^(8 - bits) */
-    if (bytes == 1u) { /* the usual k (9 to 16), its byte shift a constant */
-        shift_entries(in, out, n, half, 1u, m);
-    } else {
-        shift_entries(in, out, n, half, bytes, m);
-    }
-    return k;
+    return fx_norm16(in, out, n, (uint16_t)limit);
 }
 
 /* The same from int64 (the window's exact rows) to |out| <= ROW_LIMIT (27 bits); k = 0

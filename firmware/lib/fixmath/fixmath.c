@@ -97,6 +97,34 @@ int32_t fx_dot16_c(const int16_t *a, const int16_t *b, uint8_t n)
     return (int32_t)acc;
 }
 
+int8_t fx_norm16_c(const int32_t *in, int16_t *out, uint8_t n, uint16_t limit)
+{
+    uint32_t peak = 0;
+    for (uint8_t i = 0; i < n; i++) {
+        uint32_t mag = in[i] < 0 ? (uint32_t)0 - (uint32_t)in[i] : (uint32_t)in[i];
+        peak = mag > peak ? mag : peak;
+    }
+    uint8_t bits = 0;
+    while (bits < 32u && (peak >> bits) != 0u) {
+        bits++;
+    }
+    int8_t k = peak != 0u ? (int8_t)(bits - 14) : 0;
+    if (k <= 0) { /* |in| < 2^14 */
+        for (uint8_t i = 0; i < n; i++) {
+            out[i] = (int16_t)(uint16_t)((uint32_t)in[i] << -k);
+        }
+        return k;
+    }
+    if (peak >= ((uint32_t)2u * limit + 1u) << (k - 1)) { /* rounding up would pass it */
+        k++;
+    }
+    int32_t half = (int32_t)1 << (k - 1);
+    for (uint8_t i = 0; i < n; i++) { /* GCC shifts a negative int32 arithmetically */
+        out[i] = (int16_t)(uint16_t)(uint32_t)((in[i] + half) >> k);
+    }
+    return k;
+}
+
 fx_ufactor_t fx_ufactor(uint32_t x, uint8_t q)
 {
     if (x == 0u) {

@@ -444,6 +444,17 @@ int32_t fx_dot16(const int16_t *a, const int16_t *b, uint8_t n);
 #define fx_dot16 fx_dot16_c
 #endif
 
+/* in[0..n) · 2^-k rounded half up as int16, with |out| <= limit and as many bits as that
+ * allows (block floating point); returns k (0 for zeros). For |in| < 2^30 and a 14-bit
+ * limit (2^13 <= limit < 2^14). On the AVR in assembly (fx_norm16_avr.S, ~29 cycles an
+ * entry and ~250 a call); the C twin gives the same bits. */
+int8_t fx_norm16_c(const int32_t *in, int16_t *out, uint8_t n, uint16_t limit);
+#if defined(__AVR__)
+int8_t fx_norm16(const int32_t *in, int16_t *out, uint8_t n, uint16_t limit);
+#else
+#define fx_norm16 fx_norm16_c
+#endif
+
 /* Σ l[k stride] y[k] 2^-15 for k < n (int16 l, int32 y): the sum exact, rounded half up
  * once, saturated (flagged). On the AVR an assembly loop of hardware multiplies
  * (fx_dot16x32_avr.S, ~85 cycles a pair); the C twin gives the same bits. */
