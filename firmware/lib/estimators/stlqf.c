@@ -379,15 +379,8 @@ static int8_t weigh(const int16_t band[STLQF_ROWS][3], const int32_t *col, int16
     int16_t c[STLQF_ROWS];
     int32_t wide[STLQF_ROWS];
     int8_t e = normalize(col, c, STLQF_ROWS, COL_LIMIT);
-    /* R's band: three entries, fewer at the end; inline products, where a call per row
-     * cost as much as its three products (|R|, |c| <= COL_LIMIT: sums below 2^30) */
-    for (uint8_t i = 0; i + 2u < STLQF_ROWS; i++) {
-        wide[i] = fx_mul16x16(band[i][0], c[i]) + fx_mul16x16(band[i][1], c[i + 1u]) +
-                  fx_mul16x16(band[i][2], c[i + 2u]);
-    }
-    wide[STLQF_ROWS - 2u] = fx_mul16x16(band[STLQF_ROWS - 2u][0], c[STLQF_ROWS - 2u]) +
-                            fx_mul16x16(band[STLQF_ROWS - 2u][1], c[STLQF_ROWS - 1u]);
-    wide[STLQF_ROWS - 1u] = fx_mul16x16(band[STLQF_ROWS - 1u][0], c[STLQF_ROWS - 1u]);
+    /* R's band: three entries, fewer at the end (|R|, |c| <= COL_LIMIT: sums below 2^30) */
+    fx_band16(band, c, wide, STLQF_ROWS);
     return (int8_t)(e + normalize(wide, x, STLQF_ROWS, X_LIMIT));
 }
 

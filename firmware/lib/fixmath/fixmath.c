@@ -97,6 +97,17 @@ int32_t fx_dot16_c(const int16_t *a, const int16_t *b, uint8_t n)
     return (int32_t)acc;
 }
 
+void fx_band16_c(const int16_t (*band)[3], const int16_t *c, int32_t *out, uint8_t n)
+{
+    for (uint8_t i = 0; i < n; i++) {
+        uint32_t acc = 0; /* modulo 2^32, as the AVR's bytes */
+        for (uint8_t d = 0; d < 3u && i + d < n; d++) {
+            acc += (uint32_t)((int32_t)band[i][d] * c[i + d]);
+        }
+        out[i] = (int32_t)acc;
+    }
+}
+
 int8_t fx_norm16_c(const int32_t *in, int16_t *out, uint8_t n, uint16_t limit)
 {
     uint32_t peak = 0;

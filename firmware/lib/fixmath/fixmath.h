@@ -455,6 +455,17 @@ int8_t fx_norm16(const int32_t *in, int16_t *out, uint8_t n, uint16_t limit);
 #define fx_norm16 fx_norm16_c
 #endif
 
+/* out[i] = Σ band[i][d] c[i + d] over d < 3 and i + d < n (a banded matrix, three words a
+ * row, times a vector), int16 products summed in int32 (modulo 2^32: the caller keeps the
+ * sums in range). On the AVR in assembly (fx_band16_avr.S, ~94 cycles a row); the C twin
+ * gives the same bits. */
+void fx_band16_c(const int16_t (*band)[3], const int16_t *c, int32_t *out, uint8_t n);
+#if defined(__AVR__)
+void fx_band16(const int16_t (*band)[3], const int16_t *c, int32_t *out, uint8_t n);
+#else
+#define fx_band16 fx_band16_c
+#endif
+
 /* Σ l[k stride] y[k] 2^-15 for k < n (int16 l, int32 y): the sum exact, rounded half up
  * once, saturated (flagged). On the AVR an assembly loop of hardware multiplies
  * (fx_dot16x32_avr.S, ~85 cycles a pair); the C twin gives the same bits. */
