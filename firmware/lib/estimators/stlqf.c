@@ -329,18 +329,12 @@ static int32_t round_down64(int64_t x, uint8_t k)
     return (y >> 1) + (y & 1);
 }
 
-/* in[0..n) · 2^-k (rounded half up) as int16 with |out| <= limit (14 bits) and as many
- * bits as that allows; returns k (0 for zeros): fixmath's fx_norm16, in assembly on the
- * AVR. */
+/* The columns go to int16 by fixmath's fx_norm16 (in assembly on the AVR), whose limits
+ * are 14-bit. */
 typedef char stlqf_limits_are_14_bits[(COL_LIMIT >> 13) == 1 && (X_LIMIT >> 13) == 1 ? 1 : -1];
 
-static int8_t normalize(const int32_t *in, int16_t *out, uint8_t n, int32_t limit)
-{
-    return fx_norm16(in, out, n, (uint16_t)limit);
-}
-
-/* The same from int64 (the window's exact rows) to |out| <= ROW_LIMIT (27 bits); k = 0
- * for zeros. */
+/* in[0..n) · 2^-k (rounded half up) as int32 with |out| <= ROW_LIMIT (27 bits), from
+ * int64 (the window's exact rows); returns k (0 for zeros). */
 static int8_t normalize64(const int64_t *in, int32_t *out, uint8_t n)
 {
     uint64_t peak = 0; /* the magnitudes' OR: the largest one's bit length, no comparisons */
@@ -378,10 +372,10 @@ static int8_t weigh(const int16_t band[STLQF_ROWS][3], const int32_t *col, int16
 {
     int16_t c[STLQF_ROWS];
     int32_t wide[STLQF_ROWS];
-    int8_t e = normalize(col, c, STLQF_ROWS, COL_LIMIT);
+    int8_t e = fx_norm16(col, c, STLQF_ROWS, COL_LIMIT);
     /* R's band: three entries, fewer at the end (|R|, |c| <= COL_LIMIT: sums below 2^30) */
     fx_band16(band, c, wide, STLQF_ROWS);
-    return (int8_t)(e + normalize(wide, x, STLQF_ROWS, X_LIMIT));
+    return (int8_t)(e + fx_norm16(wide, x, STLQF_ROWS, X_LIMIT));
 }
 
 /* nine products of at most X_LIMIT² fit int32 */
@@ -401,7 +395,7 @@ static uint8_t configure_q(stlqf_q_t *q, const uint8_t *params, const int32_t ba
     q->mu_min = param_q(params, P_MU_MIN);
     q->held_max = param_q(params, P_HELD);
     int16_t flat[STLQF_ROWS * 3];
-    normalize(&band[0][0], flat, STLQF_ROWS * 3u, COL_LIMIT);
+    fx_norm16(&band[0][0], flat, STLQF_ROWS * 3u, COL_LIMIT);
     memcpy(q->band, flat, sizeof flat);
     /* g/cos ε's filtered columns, exact: (τ + χ1/T) g' and g', in Q42. */
     int64_t col[2][STLQF_ROWS];

@@ -444,9 +444,9 @@ int32_t fx_dot16(const int16_t *a, const int16_t *b, uint8_t n);
 #define fx_dot16 fx_dot16_c
 #endif
 
-/* in[0..n) · 2^-k rounded half up as int16, with |out| <= limit and as many bits as that
- * allows (block floating point); returns k (0 for zeros). For |in| < 2^30 and a 14-bit
- * limit (2^13 <= limit < 2^14). On the AVR in assembly (fx_norm16_avr.S, ~29 cycles an
+/* in[0..n) · 2^-k rounded half up as int16 (block floating point): the peak to 14 bits, one
+ * fewer where rounding would pass limit; a peak below 2^14 shifted up (k <= 0, not held to
+ * limit); returns k (0 for zeros). For |in| < 2^30 and 2^13 <= limit < 2^14. On the AVR in assembly (fx_norm16_avr.S, ~29 cycles an
  * entry and ~250 a call); the C twin gives the same bits. */
 int8_t fx_norm16_c(const int32_t *in, int16_t *out, uint8_t n, uint16_t limit);
 #if defined(__AVR__)
