@@ -140,13 +140,13 @@ fx_norm16:
         mov     r24, r21        ; k
         mov     r18, r21
         dec     r18             ; k - 1
-        mov     r19, r18
-        andi    r19, 7
-        ldi     r30, 1          ; 2^((k-1) & 7)
-        rjmp    10f
-9:      lsl     r30
-10:     dec     r19
-        brpl    9b
+        ldi     r30, 1          ; 2^((k-1) & 7): 1 or 4, doubled, swapped
+        sbrc    r18, 1
+        ldi     r30, 4
+        sbrc    r18, 0
+        lsl     r30
+        sbrc    r18, 2
+        swap    r30
         mul     r28, r30        ; P = L 2^((k-1) & 7) in r31:r21:r25
         mov     r25, r0
         mov     r21, r1
@@ -169,16 +169,22 @@ fx_norm16:
 12:     brlo    13f
         inc     r24             ; k + 1
         inc     r18
-13:     ; 2^((k-1) & 7) in r30 and m = 2^(7 - ((k-1) & 7)) in r28
-        mov     r19, r18
-        andi    r19, 7
+13:     ; 2^((k-1) & 7) in r30 and m = 2^(7 - ((k-1) & 7)) in r28, as above
         ldi     r30, 1
         ldi     r28, 0x80
+        sbrs    r18, 1
+        rjmp    14f
+        ldi     r30, 4
+        ldi     r28, 0x20
+14:     sbrs    r18, 0
         rjmp    15f
-14:     lsl     r30
+        lsl     r30
         lsr     r28
-15:     dec     r19
-        brpl    14b
+15:     sbrs    r18, 2
+        rjmp    16f
+        swap    r30
+        swap    r28
+16:
         clr     r14             ; half = 2^(k-1) in r17:r14
         clr     r15
         movw    r16, r14
