@@ -1,9 +1,9 @@
 """Assembly kernels that only float32 paths use, which no bit-exact drive holds to their C
 twins, fixmath's fx_mul_f at every shift, which the drives reach only a few of, and
-fx_mul16x16, fx_norm16 and fx_band16 on every edge: a fixture project (tests/fixtures/kernels) builds an image whose probe estimator
-runs a kernel on each SAMPLE's operands, and its own check (check_kernels.py) holds the
-assembly on simavr to the C twin on the native board and to Python's integers, on edge
-and random operands."""
+fx_mul16x16, fx_norm16 and fx_band16 on every edge: a fixture project
+(tests/fixtures/kernels) builds an image whose probe estimator runs a kernel on each
+SAMPLE's operands, and its own check (check_kernels.py) holds the assembly on simavr to
+the C twin on the native board and to Python's integers, on edge and random operands."""
 
 import subprocess
 

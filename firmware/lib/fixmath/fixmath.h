@@ -435,7 +435,7 @@ FX_INLINE int32_t fx_mul16_h15(int32_t a, int16_t b)
 int32_t fx_mul16_h15_c(int32_t a, int16_t b);
 
 /* Σ a[i] b[i] for i < n, int16 pairs summed in int32 (modulo 2^32: the caller keeps the
- * sum in range). On the AVR an assembly loop of hardware multiplies (fx_dot16_avr.S, ~35
+ * sum in range). On the AVR an assembly loop of hardware multiplies (fx_dot16_avr.S, ~33
  * cycles a pair); the C twin gives the same bits. */
 int32_t fx_dot16_c(const int16_t *a, const int16_t *b, uint8_t n);
 #if defined(__AVR__)
