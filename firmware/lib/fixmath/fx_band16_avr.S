@@ -10,16 +10,8 @@
         .section .text.fx_band16, "ax", @progbits
         .global fx_band16
 
-; acc (r25:r22) += r17:r16 × r19:r18, signed (r21 = 0)
-.macro  MAC
-        mul     r16, r18
-        add     r22, r0
-        adc     r23, r1
-        adc     r24, r21
-        adc     r25, r21
-        muls    r17, r19
-        add     r24, r0
-        adc     r25, r1
+; acc (r25:r22) += the cross terms of r17:r16 × r19:r18, signed (r21 = 0)
+.macro  CROSS
         mulsu   r17, r18        ; at byte 1: C is its sign, its fill at byte 3 -1
         sbc     r25, r21
         add     r23, r0
@@ -30,6 +22,19 @@
         add     r23, r0
         adc     r24, r1
         adc     r25, r21
+.endm
+
+; acc (r25:r22) += r17:r16 × r19:r18, signed
+.macro  MAC
+        mul     r16, r18
+        add     r22, r0
+        adc     r23, r1
+        adc     r24, r21
+        adc     r25, r21
+        muls    r17, r19
+        add     r24, r0
+        adc     r25, r1
+        CROSS
 .endm
 
 fx_band16:
@@ -65,16 +70,7 @@ fx_band16:
         movw    r24, r0
         mul     r16, r18
         movw    r22, r0
-        mulsu   r17, r18
-        sbc     r25, r21
-        add     r23, r0
-        adc     r24, r1
-        adc     r25, r21
-        mulsu   r19, r16
-        sbc     r25, r21
-        add     r23, r0
-        adc     r24, r1
-        adc     r25, r21
+        CROSS
         ld      r16, Z+         ; band[i][1] c[i + 1]
         ld      r17, Z+
         movw    r18, r12
