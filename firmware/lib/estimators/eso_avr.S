@@ -66,9 +66,7 @@ eso_observer_avr:
         .section .text.eso_front_q_avr, "ax", @progbits
         .global eso_front_q_avr
 eso_front_q_avr:
-        PUSH_RANGE 2, 17
-        push    r28
-        push    r29
+        PUSH_RANGE 2, 17, 28, 29
         movw    r16, r20        ; status, where fx_mul_f_avr's entries take it
         clr     r13
         movw    r14, r24        ; the conditioning's coefficients: s's first field
@@ -118,7 +116,5 @@ eso_front_q_avr:
         ld      r18, Z
         ori     r18, SATURATED
         st      Z, r18
-1:      pop     r29
-        pop     r28
-        POP_RANGE 2, 17
+1:      POP_RANGE 2, 17, 28, 29
         ret

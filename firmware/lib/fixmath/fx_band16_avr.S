@@ -7,6 +7,8 @@
 ; n in r18. Clobbers r0, r18-r27, r30, r31 (call-used) and saves r12-r17, r28, r29; r1 is
 ; left 0.
 
+#include "fx_save_avr.inc"
+
         .section .text.fx_band16, "ax", @progbits
         .global fx_band16
 
@@ -38,14 +40,7 @@
 .endm
 
 fx_band16:
-        push    r12
-        push    r13
-        push    r14
-        push    r15
-        push    r16
-        push    r17
-        push    r28
-        push    r29
+        PUSH_RANGE 12, 17, 28, 29
         movw    r30, r24        ; Z = band
         movw    r26, r22        ; X = c
         movw    r28, r20        ; Y = out
@@ -95,12 +90,5 @@ fx_band16:
         rjmp    .Lrow
 .Ldone:
         clr     r1
-        pop     r29
-        pop     r28
-        pop     r17
-        pop     r16
-        pop     r15
-        pop     r14
-        pop     r13
-        pop     r12
+        POP_RANGE 12, 17, 28, 29
         ret

@@ -7,6 +7,8 @@
 ; avr-gcc's interface: a in r25:r24, b in r23:r22, n in r20; the sum in r25:r22.
 ; Clobbers r0, r18-r21, r26, r27, r30, r31 (call-used) and saves r16, r17; r1 is left 0.
 
+#include "fx_save_avr.inc"
+
 .macro  PAIR
         ld      r18, X+         ; a low, high
         ld      r19, X+
@@ -35,8 +37,7 @@
         .section .text.fx_dot16, "ax", @progbits
         .global fx_dot16
 fx_dot16:
-        push    r16
-        push    r17
+        PUSH_RANGE 16, 17
         movw    r26, r24        ; X = a
         movw    r30, r22        ; Z = b
         clr     r21             ; zero
@@ -54,6 +55,5 @@ fx_dot16:
         subi    r20, 2
         brne    1b
 2:      clr     r1
-        pop     r17
-        pop     r16
+        POP_RANGE 16, 17
         ret

@@ -10,6 +10,8 @@
 #define SATURATED 0x01          /* STATUS_SATURATED, proto/messages.h */
 #define ZERO r9
 
+#include "fx_save_avr.inc"
+
 ; acc (r2..r8) += r1:r0 at byte b
 .macro ACC_ADD b
         add     2+\b, r0
@@ -24,18 +26,7 @@
         .section .text.fx_dot16x32_q15, "ax", @progbits
         .global fx_dot16x32_q15
 fx_dot16x32_q15:
-        push    r2
-        push    r3
-        push    r4
-        push    r5
-        push    r6
-        push    r7
-        push    r8
-        push    r9
-        push    r16
-        push    r17
-        push    r28
-        push    r29
+        PUSH_RANGE 2, 9, 16, 17, 28, 29
         movw    r28, r16        ; status
         movw    r26, r24        ; X = l
         movw    r30, r22        ; Z = y
@@ -127,16 +118,5 @@ fx_dot16x32_q15:
         ori     r16, SATURATED
         st      Y, r16
 5:      clr     r1
-        pop     r29
-        pop     r28
-        pop     r17
-        pop     r16
-        pop     r9
-        pop     r8
-        pop     r7
-        pop     r6
-        pop     r5
-        pop     r4
-        pop     r3
-        pop     r2
+        POP_RANGE 2, 9, 16, 17, 28, 29
         ret

@@ -15,16 +15,13 @@
 
 #define SATURATED 0x01          /* STATUS_SATURATED, proto/messages.h */
 #include "fx_table_jump.inc"
+#include "fx_save_avr.inc"
 #define E 26                    /* sign fill of the rounded product: its byte 8 */
 #define S 27                    /* sign fill of the result */
 
 ; P = a · b, signed 64-bit, in r25:r18 (byte j of P in register 18 + j).
 .macro MUL64
-        push    r2
-        push    r3
-        push    r4
-        push    r5
-        push    r28
+        PUSH_RANGE 2, 5, 28, 28
         movw    r2, r18         ; b
         movw    r4, r20
         movw    r26, r22        ; a: r26, r27, r30, r31
@@ -68,11 +65,7 @@
         sbc     r24, r30
         sbc     r25, r31
 2:      clr     r1
-        pop     r28
-        pop     r5
-        pop     r4
-        pop     r3
-        pop     r2
+        POP_RANGE 2, 5, 28, 28
 .endm
 
 ; registers (lo+1, lo+2, lo+3) += x · y · 2^8·0 aligned at lo (r28 is zero)

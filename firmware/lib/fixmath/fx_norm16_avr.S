@@ -6,6 +6,8 @@
 ; avr-gcc's interface: in in r25:r24, out in r23:r22, n in r20, limit in r19:r18; k in r24.
 ; Clobbers r0, r18-r27, r30, r31 (call-used) and saves r14-r17, r28, r29; r1 is left 0.
 
+#include "fx_save_avr.inc"
+
         .section .text.fx_norm16, "ax", @progbits
         .global fx_norm16
 
@@ -44,12 +46,7 @@
 .endm
 
 fx_norm16:
-        push    r14
-        push    r15
-        push    r16
-        push    r17
-        push    r28
-        push    r29
+        PUSH_RANGE 14, 17, 28, 29
         movw    r28, r18        ; L = 2 limit + 1
         lsl     r28
         rol     r29
@@ -206,10 +203,5 @@ fx_norm16:
         SHIFT_LOOP r20, r21, r25, 1
 .Ldone:
         clr     r1
-        pop     r29
-        pop     r28
-        pop     r17
-        pop     r16
-        pop     r15
-        pop     r14
+        POP_RANGE 14, 17, 28, 29
         ret

@@ -8,6 +8,8 @@
 ; r25:r18. bfp24_band: r in r25:r24, c in r23:r22, rows in r20, out in r19:r18. Each saves
 ; what it uses of r2-r17, r28, r29; r1 is left 0.
 
+#include "fixmath/fx_save_avr.inc"
+
 #define ZERO r16
 #define COUNT r17
 #define SIGN r8
@@ -81,41 +83,14 @@ bfp24_pairs:
         rjmp    4b              ; (brne does not reach back to 1 from here)
         .size   bfp24_pairs, . - bfp24_pairs
 
+; r9 is left out: bfp24_dot does not use it, bfp24_band saves it with Y
 .macro SAVE
-        push    r2
-        push    r3
-        push    r4
-        push    r5
-        push    r6
-        push    r7
-        push    r8
-        push    r10
-        push    r11
-        push    r12
-        push    r13
-        push    r14
-        push    r15
-        push    r16
-        push    r17
+        PUSH_RANGE 2, 8, 10, 17
 .endm
 
 .macro RESTORE
         clr     r1
-        pop     r17
-        pop     r16
-        pop     r15
-        pop     r14
-        pop     r13
-        pop     r12
-        pop     r11
-        pop     r10
-        pop     r8
-        pop     r7
-        pop     r6
-        pop     r5
-        pop     r4
-        pop     r3
-        pop     r2
+        POP_RANGE 2, 8, 10, 17
 .endm
 
 .macro CLEAR_SUM
@@ -146,9 +121,7 @@ bfp24_dot:
         .global bfp24_band
 bfp24_band:
         SAVE
-        push    r9
-        push    r28
-        push    r29
+        PUSH_RANGE 9, 9, 28, 29
         movw    r26, r24        ; X = r
         movw    r30, r22        ; Z = c
         movw    r28, r18        ; Y = out
@@ -179,8 +152,6 @@ bfp24_band:
         adiw    r26, 4
 4:      dec     LEFT
         brne    5b
-8:      pop     r29
-        pop     r28
-        pop     r9
+8:      POP_RANGE 9, 9, 28, 29
         RESTORE
         ret

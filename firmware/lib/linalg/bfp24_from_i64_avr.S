@@ -13,6 +13,7 @@
 #define Q r13
 
 #include "bfp24_neg64.inc"
+#include "fixmath/fx_save_avr.inc"
 
 ; r25:r18 = |r25:r18|, T = its sign
 .macro MAGNITUDE
@@ -36,22 +37,7 @@
         .section .text.bfp24_from_i64, "ax", @progbits
         .global bfp24_from_i64
 bfp24_from_i64:
-        push    r2
-        push    r3
-        push    r4
-        push    r5
-        push    r6
-        push    r7
-        push    r8
-        push    r9
-        push    r10
-        push    r11
-        push    r12
-        push    r13
-        push    r14
-        push    r15
-        push    r28
-        push    r29
+        PUSH_RANGE 2, 15, 28, 29
         movw    r26, r24        ; X = s
         movw    r14, r24        ; (again for the second pass)
         movw    r28, r20        ; Y = m
@@ -145,20 +131,5 @@ bfp24_from_i64:
         brne    8b
 14:     mov     r24, K
         clr     r1
-        pop     r29
-        pop     r28
-        pop     r15
-        pop     r14
-        pop     r13
-        pop     r12
-        pop     r11
-        pop     r10
-        pop     r9
-        pop     r8
-        pop     r7
-        pop     r6
-        pop     r5
-        pop     r4
-        pop     r3
-        pop     r2
+        POP_RANGE 2, 15, 28, 29
         ret
