@@ -602,13 +602,13 @@ int32_t fx_asin_q30(int32_t x, uint8_t *status)
     return x > 0 ? a : -a;
 }
 
-/* log2(1 + k/16) in Q24, k = 0..16. */
-static const ROM ROM_TABLE(int32_t, 17) log2_table = {{
+/* log2(1 + k/16) in Q24, k = 0..16 (not static: fx_log2_avr.S reads it too). */
+const ROM ROM_TABLE(int32_t, 17) fx_log2_table = {{
     0,        1467383,  2850868,  4159533,  5401057,  6581994,  7707984,  8783912, 9814042,
     10802114, 11751428, 12664911, 13545168, 14394532, 15215099, 16008758, 16777216,
 }};
 
-int32_t fx_log2_q24(int32_t x, uint8_t q)
+int32_t fx_log2_q24_c(int32_t x, uint8_t q)
 {
     if (x <= 0) {
         return INT32_MIN;
@@ -628,7 +628,8 @@ int32_t fx_log2_q24(int32_t x, uint8_t q)
     uint16_t h = (uint16_t)(m >> 16);
     uint8_t idx = (uint8_t)(h >> 11) & 15u;
     uint16_t frac = (uint16_t)(h << 5) & 0xffc0u; /* bits 10..1 of h, times 2^6 */
-    int32_t lo = rom_i32(ROM_AT(log2_table, idx)), hi = rom_i32(ROM_AT(log2_table, idx + 1u));
+    int32_t lo = rom_i32(ROM_AT(fx_log2_table, idx)),
+            hi = rom_i32(ROM_AT(fx_log2_table, idx + 1u));
     /* (hi - lo) frac 2^-16 rounded half up, hi - lo < 2^21 split at bit 16: two 16 × 16
      * products inline and a two-byte shift, where a 32 × 16 product was a call and the
      * shift by 10 a loop */
