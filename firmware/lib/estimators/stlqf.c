@@ -544,13 +544,14 @@ static uint8_t solve_q(stlqf_state_t *s, int32_t *log_cond)
     int32_t *gi = g;
     for (uint8_t i = 0; i < 6u; i++, gi += 6) {
         /* Gi / 2^32 in Q30: diagonal < 1/2; g/cos ε's own entries are constant (θ's 4 and
-         * 5, the solve's unknowns 3 and 4) */
-        uint8_t known = i == 3u || i == 4u ? 3u : 6u;
-        for (uint8_t j = 0; j <= i; j++) {
-            gi[j] = (j < known ? dot_q(xu[i], xu[j]) : q->g_gg[i + j - 6u]) >> 2;
+         * 5, the solve's unknowns 3 and 4); nine products of at most X_LIMIT² fit int32 */
+        uint8_t known = i == 3u || i == 4u ? 3u : (uint8_t)(i + 1u);
+        fx_dot16_rows(xu[i], xu, gi, known, STLQF_ROWS, 2);
+        for (uint8_t j = known; j <= i; j++) {
+            gi[j] = q->g_gg[i + j - 6u] >> 2;
         }
-        rhs[i] = dot_q(xu[i], x[4]) >> (32 - DELTA_Q);
     }
+    fx_dot16_rows(x[4], xu, rhs, 6, STLQF_ROWS, 32 - DELTA_Q);
     for (uint8_t i = 0; i < 6u; i++) {
         int32_t *gii = &g[i * 6u + i];
         scale[i] = *gii > 0 ? *gii : ((int32_t)1 << 28); /* a column of zeros: δ = 0 */

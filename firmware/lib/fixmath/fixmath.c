@@ -97,6 +97,33 @@ int32_t fx_dot16_c(const int16_t *a, const int16_t *b, uint8_t n)
     return (int32_t)acc;
 }
 
+/* The root's bits from the top, each kept where the root so far squared stays at most x;
+ * its high byte from x's top half by 8 × 8 products (floor(sqrt(x)) >> 8 is
+ * floor(sqrt(x >> 16))), its low byte by 16 × 16 ones. */
+uint16_t fx_isqrt32_c(uint32_t x)
+{
+    uint16_t top = (uint16_t)(x >> 16);
+    uint8_t hi = 0;
+    for (uint8_t bit = 0x80u; bit != 0u; bit >>= 1) {
+        uint8_t t = (uint8_t)(hi | bit);
+        hi = (uint16_t)((uint16_t)t * t) <= top ? t : hi;
+    }
+    uint16_t root = (uint16_t)((uint16_t)hi << 8);
+    for (uint8_t bit = 0x80u; bit != 0u; bit >>= 1) {
+        uint16_t t = (uint16_t)(root | bit);
+        root = fx_umul16x16(t, t) <= x ? t : root;
+    }
+    return root;
+}
+
+void fx_dot16_rows_c(const int16_t *a, const int16_t *const *b, int32_t *out, uint8_t m,
+                     uint8_t n, uint8_t shift)
+{
+    for (uint8_t j = 0; j < m; j++) {
+        out[j] = fx_dot16_c(a, b[j], n) >> shift; /* arithmetic, as the AVR's */
+    }
+}
+
 void fx_band16_c(const int16_t (*band)[3], const int16_t *c, int32_t *out, uint8_t n)
 {
     for (uint8_t i = 0; i < n; i++) {

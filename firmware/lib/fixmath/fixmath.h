@@ -444,6 +444,28 @@ int32_t fx_dot16(const int16_t *a, const int16_t *b, uint8_t n);
 #define fx_dot16 fx_dot16_c
 #endif
 
+/* floor(sqrt(x)), exact. On the AVR in assembly (fx_isqrt_avr.S: the root's bits by
+ * hardware products, unrolled, ~240 cycles where avr-gcc's C takes ~415); the C twin gives
+ * the same root. */
+uint16_t fx_isqrt32_c(uint32_t x);
+#if defined(__AVR__)
+uint16_t fx_isqrt32(uint32_t x);
+#else
+#define fx_isqrt32 fx_isqrt32_c
+#endif
+
+/* out[j] = fx_dot16(a, b[j], n) >> shift for j < m (shift < 16, arithmetic): a row of
+ * Gram sums in one call. On the AVR in assembly (fx_dot16_avr.S: fx_dot16's loop per
+ * sum, without a call and its saves each); the C twin gives the same bits. */
+void fx_dot16_rows_c(const int16_t *a, const int16_t *const *b, int32_t *out, uint8_t m,
+                     uint8_t n, uint8_t shift);
+#if defined(__AVR__)
+void fx_dot16_rows(const int16_t *a, const int16_t *const *b, int32_t *out, uint8_t m,
+                   uint8_t n, uint8_t shift);
+#else
+#define fx_dot16_rows fx_dot16_rows_c
+#endif
+
 /* in[0..n) · 2^-k rounded half up as int16 (block floating point): the peak to 14 bits, one
  * fewer where rounding would pass limit; a peak below 2^14 shifted up (k <= 0, not held to
  * limit); returns k (0 for zeros). For |in| < 2^30 and 2^13 <= limit < 2^14. On the AVR in assembly (fx_norm16_avr.S, ~29 cycles an

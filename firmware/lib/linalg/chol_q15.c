@@ -2,26 +2,6 @@
 
 #include "fixmath/fixmath.h"
 
-/* floor(sqrt(x)): the root's bits from the top, each kept where the root so far squared
- * stays at most x; its high byte from x's top half by 8 × 8 products (floor(sqrt(x)) >> 8
- * is floor(sqrt(x >> 16))), its low byte by 16 × 16 ones. Hardware products, where a
- * restoring root shifted two int32 a bit at a time. */
-static uint16_t isqrt(uint32_t x)
-{
-    uint16_t top = (uint16_t)(x >> 16);
-    uint8_t hi = 0;
-    for (uint8_t bit = 0x80u; bit != 0u; bit >>= 1) {
-        uint8_t t = (uint8_t)(hi | bit);
-        hi = (uint16_t)((uint16_t)t * t) <= top ? t : hi;
-    }
-    uint16_t root = (uint16_t)((uint16_t)hi << 8);
-    for (uint8_t bit = 0x80u; bit != 0u; bit >>= 1) {
-        uint16_t t = (uint16_t)(root | bit);
-        root = fx_umul16x16(t, t) <= x ? t : root;
-    }
-    return root;
-}
-
 /* count more quotient bits of a restoring division by l, the remainder (below l < 2^15)
  * in 16 bits */
 static inline uint16_t quotient_bits(uint16_t *rem, uint16_t l, uint8_t count)
@@ -96,7 +76,7 @@ uint8_t chol_solve_q15(const int32_t *a, int32_t *b, uint8_t n, int16_t *l, int3
                 if (s < ((int32_t)1 << 10)) {
                     return 0;
                 }
-                lj[j] = (int16_t)isqrt((uint32_t)s);
+                lj[j] = (int16_t)fx_isqrt32((uint32_t)s);
                 inv[j] = (int32_t)recip31((uint16_t)lj[j]); /* l_jj >= 32 */
             } else {
                 li[j] = to_q15(fx_mul_shr(s, inv[j], 31, status), status);
@@ -118,7 +98,7 @@ int32_t chol_inv_diag_q15(const int16_t *l, const int32_t *inv, uint8_t n, uint8
 {
     int32_t w[CHOL_Q15_MAX_N], sum = 0;
     for (uint8_t i = a; i < n; i++) {
-        int32_t x = i == a ? (int32_t)isqrt((uint32_t)(s > 0 ? s : 0)) << 15 : 0; /* √s, Q30 */
+        int32_t x = i == a ? (int32_t)fx_isqrt32((uint32_t)(s > 0 ? s : 0)) << 15 : 0; /* √s, Q30 */
         w[i] = substitute(x, l + i * n + a, w + a, 1, (uint8_t)(i - a), inv[i], status);
         sum = fx_add(sum, fx_mul_shr(w[i], w[i], 30, status), status);
     }
