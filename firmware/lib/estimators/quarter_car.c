@@ -1,5 +1,7 @@
 #include "estimators/quarter_car.h"
 
+#include <stddef.h>
+
 #include "fixmath/fixmath.h"
 
 const ROM param_range_t qcar_ranges[QCAR_N_PARAMS] = {
@@ -69,7 +71,7 @@ static int32_t times_x16(int32_t p, int16_t x)
     return x < 0 ? -r : r;
 }
 
-int32_t qcar_strut_over_kus_q(const qcar_q_t *m, int32_t dx, int32_t dv, uint8_t *status)
+int32_t qcar_strut_over_kus_q_c(const qcar_q_t *m, int32_t dx, int32_t dv, uint8_t *status)
 {
     int16_t x = drop12_int16(dx, status); /* m Q28 -> Q16 */
     int16_t v = drop12_int16(dv, status); /* m/s Q24 -> Q12 */
@@ -81,3 +83,14 @@ int32_t qcar_strut_over_kus_q(const qcar_q_t *m, int32_t dx, int32_t dv, uint8_t
     int32_t strut = fx_add(times_x16(p, x), times_x16(d, v), status);
     return fx_rescale(strut, 20, 28, status);
 }
+
+#if defined(__AVR__)
+/* quarter_car_avr.S reads qcar_q_t at these offsets */
+#define AT(name, ok) typedef char qcar_at_##name[(ok) ? 1 : -1]
+AT(s1, offsetof(qcar_q_t, s1) == 22);
+AT(s2, offsetof(qcar_q_t, s2) == 26);
+AT(s3, offsetof(qcar_q_t, s3) == 30);
+AT(d1, offsetof(qcar_q_t, d1) == 34);
+AT(d2, offsetof(qcar_q_t, d2) == 38);
+#undef AT
+#endif

@@ -42,7 +42,14 @@ float qcar_strut_f32(const qcar_f32_t *m, float dx, float dv, uint8_t nonlinear_
 int32_t qcar_strut_nl_q(const qcar_q_t *m, int32_t dx, int32_t dv, uint8_t *status);
 /* (f_s + f_d)/k_us, the whole strut over the tire's rate, in metres Q28: the spring and
  * the damper by Horner's rule on Δx and Δẋ to 16 bits (Q16, ±0.5 m; Q12, ±8 m/s); Δx or
- * Δẋ past those ranges saturates (flagged). */
-int32_t qcar_strut_over_kus_q(const qcar_q_t *m, int32_t dx, int32_t dv, uint8_t *status);
+ * Δẋ past those ranges saturates (flagged). On the AVR an assembly routine
+ * (quarter_car_avr.S); the C twin gives the same bits on the host. */
+int32_t qcar_strut_over_kus_q_c(const qcar_q_t *m, int32_t dx, int32_t dv, uint8_t *status);
+#if defined(__AVR__)
+int32_t qcar_strut_over_kus_avr(const qcar_q_t *m, int32_t dx, int32_t dv, uint8_t *status);
+#define qcar_strut_over_kus_q qcar_strut_over_kus_avr
+#else
+#define qcar_strut_over_kus_q qcar_strut_over_kus_q_c
+#endif
 
 #endif
