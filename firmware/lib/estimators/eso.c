@@ -69,8 +69,8 @@ void eso_front_q_c(eso_q_t *s, const uint8_t *in, uint8_t *status)
 {
     int32_t y_s = accel_cond_step_q_c(&s->ecu.cond, &s->ecu.ch[0], get_i32(in), status);
     int32_t y_us = accel_cond_step_q_c(&s->ecu.cond, &s->ecu.ch[1], get_i32(in + 4), status);
-    observer_q(s->k, s->z + 3, y_us, status, s->acc[1]);
-    observer_q(s->k, s->z, y_s, status, s->acc[0]);
+    observer_q(s->k, s->z + 3, y_us, status, s->model_in ? s->acc[1] : s->z[5]);
+    observer_q(s->k, s->z, y_s, status, s->model_in ? s->acc[0] : s->z[2]);
 }
 
 #if defined(__AVR__)
@@ -83,6 +83,7 @@ AT(cond, offsetof(eso_q_t, ecu.cond) == 0);
 AT(k, offsetof(eso_q_t, k) == 179 && sizeof(fx_xfactor_t) == 5);
 AT(z, offsetof(eso_q_t, z) == 199);
 AT(acc, offsetof(eso_q_t, acc) == 199 + 24);
+AT(model_in, offsetof(eso_q_t, model_in) == 199 + 36);
 #undef AT
 #else
 #define eso_front_q eso_front_q_c
@@ -94,8 +95,7 @@ __attribute__((flatten, noinline)) static uint8_t step_q(eso_state_t *st, const 
     const qcar_q_t *m = &s->ecu.model;
     int32_t *z = s->z;
     uint8_t status = 0;
-    s->acc[0] = z[2], s->acc[1] = z[5];
-    if (s->ecu.ctrl.active || st->variant) { /* else u - f_nl stays 0 */
+    if (s->model_in) { /* else u - f_nl stays 0: the front takes z3, z6 as they are */
         int32_t du = fx_sub(s->ecu.u, s->fnl, &status); /* N Q16 */
         s->acc[0] = fx_add(z[2], fx_mul_f(du, m->inv_m_s, &status), &status);
         s->acc[1] = fx_sub(z[5], fx_mul_f(du, m->inv_m_us, &status), &status);
@@ -170,6 +170,7 @@ static uint8_t eso_configure(void *state, uint8_t mode, const uint8_t *params)
         q->k[ESO_K_G1] = fx_xfactor(f.g[0], 0, &status);
         q->k[ESO_K_G2] = fx_xfactor(f.g[1], -4, &status);
         q->k[ESO_K_G3] = fx_xfactor(f.g[2], -8, &status);
+        q->model_in = q->ecu.ctrl.active || st->variant;
     }
     eso_reset(st);
     return 0;

@@ -34,6 +34,7 @@ typedef struct {
     int32_t z[6];          /* Q28 Q24 Q20, Q28 Q24 Q20 */
     int32_t acc[2];        /* this step's accelerations into the observers, Q20 */
     int32_t fnl;           /* N, Q16 */
+    uint8_t model_in;      /* u - f_nl enters the observers (else acc is z3, z6 as they are) */
 } eso_q_t;
 
 typedef struct {

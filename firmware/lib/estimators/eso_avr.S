@@ -16,6 +16,7 @@
 #define S_K 179
 #define S_Z 199
 #define Z_ACC 24                /* acc[2] right after z[6] */
+#define Z_MODEL_IN 36           /* model_in after acc and fnl */
 #define K_T 0                   /* fx_xfactor_t: 5 bytes */
 #define K_G1 5
 #define K_G2 10
@@ -27,6 +28,18 @@
         LDY     18, \off
         ADD_AB  SATC
         STY     \off, 18
+.endm
+
+; acc (r11:r8) <- the observer's acceleration input, its z at Y: s->acc's at Y + off when
+; the model's term enters (model_in at Y + flag), else z's third state
+.macro ACC off, flag
+        ldd     r8, Y+\flag
+        tst     r8
+        breq    1f
+        LDY     8, \off
+        rjmp    2f
+1:      LDY     8, 8
+2:
 .endm
 
 ; One observer, no frame: z in Y, the factors in r15:r14, y in r5:r2, acc in r11:r8. Uses
@@ -101,14 +114,14 @@ eso_front_q_avr:
         adc     r15, r31
         subi    r28, lo8(-(S_Z + 12 - S_CH0 - CH_SIZE)) ; Y = s->z + 3: the unsprung observer first
         sbci    r29, hi8(-(S_Z + 12 - S_CH0 - CH_SIZE))
-        LDY     8, Z_ACC - 12 + 4
+        ACC     Z_ACC - 12 + 4, Z_MODEL_IN - 12
         call    eso_observer_avr
         pop     r2              ; y_s
         pop     r3
         pop     r4
         pop     r5
         sbiw    r28, 12         ; Y = s->z
-        LDY     8, Z_ACC
+        ACC     Z_ACC, Z_MODEL_IN
         call    eso_observer_avr
         tst     r13             ; the saturations, into *status
         breq    1f
