@@ -1,6 +1,7 @@
 #include "estimators/stlqf.h"
 
 #include <math.h>
+#include <stddef.h>
 #include <string.h>
 
 #include "fixmath/fixmath.h"
@@ -301,6 +302,38 @@ static inline __attribute__((always_inline)) int32_t shift_down(int32_t v, uint8
     return ((v >> down) + 1) >> 1;
 }
 
+void stlqf_align_q_c(const stlqf_row_q_t *rows, uint8_t head, int8_t *peak,
+                     int32_t (*out)[STLQF_ROWS])
+{
+    peak[0] = peak[1] = peak[2] = INT8_MIN;
+    for (uint8_t j = 0; j < STLQF_ROWS; j++) {
+        for (uint8_t ch = 0; ch < 3u; ch++) {
+            peak[ch] = rows[j].k[ch] > peak[ch] ? rows[j].k[ch] : peak[ch];
+        }
+    }
+    uint8_t at = head;
+    for (uint8_t j = 0; j < STLQF_ROWS; j++) {
+        const int32_t *m = rows[at].m;
+        const int8_t *k = rows[at].k;
+        uint8_t down = (uint8_t)(peak[0] - k[0]);
+        out[0][j] = shift_down(m[0], down);
+        out[2][j] = shift_down(m[2], down);
+        down = (uint8_t)(peak[1] - k[1]);
+        out[1][j] = shift_down(m[1], down);
+        out[3][j] = shift_down(m[3], down);
+        out[4][j] = shift_down(m[4], (uint8_t)(peak[2] - k[2]));
+        at = at == STLQF_ROWS - 1u ? 0u : (uint8_t)(at + 1u);
+    }
+}
+
+#if defined(__AVR__)
+/* stlqf_align_avr.S reads the rows at these offsets */
+typedef char stlqf_row_layout[sizeof(stlqf_row_q_t) == 23u && offsetof(stlqf_row_q_t, k) == 20u &&
+                                      STLQF_ROWS == 9u && STLQF_COLS == 5u
+                                  ? 1
+                                  : -1];
+#endif
+
 /* The top half of v: by byte moves on the AVR, little-endian (avr-gcc calls a library
  * routine for a 64-bit shift, even by a constant). */
 static uint32_t high_word(uint64_t v)
@@ -459,7 +492,7 @@ static int32_t product(int32_t a, int32_t b, int8_t n, uint8_t *st)
  * out at the exponent it returns: ζ's own, or coarser where a term would pass 2^28. Each
  * product is rounded once at that exponent by a fixed-shift kernel; four terms below
  * 2^28 keep the sum in int32. */
-static int8_t residual(const stlqf_q_t *q, const int32_t r[3][STLQF_ROWS], const int8_t *e_r,
+static int8_t residual(const stlqf_q_t *q, const int32_t *const r[3], const int8_t *e_r,
                        const int32_t *prior, int32_t *out)
 {
     /* a term's operands: the row (|r| < 2^27) or g' (Q26, < 2^30), θ (Q16) */
@@ -497,28 +530,11 @@ static uint8_t solve_q(stlqf_state_t *s, int32_t *log_cond)
         prior[a] = (a & 1u) ? fx_add(q->theta[a], q->theta[a - 1u], &st) : 0;
     }
     /* The rows in int32, one exponent per channel (the largest row's): v̇'s ψ̃, ½ρv²'s,
-     * ζ, and the time column's e of the first two. */
-    int8_t peak[3] = {INT8_MIN, INT8_MIN, INT8_MIN};
-    for (uint8_t j = 0; j < STLQF_ROWS; j++) {
-        const int8_t *k = s->rows.q[j].k;
-        for (uint8_t ch = 0; ch < 3u; ch++) {
-            peak[ch] = k[ch] > peak[ch] ? k[ch] : peak[ch];
-        }
-    }
-    int32_t r[3][STLQF_ROWS], e_col[2][STLQF_ROWS];
-    uint8_t at = s->head;
-    for (uint8_t j = 0; j < STLQF_ROWS; j++) {
-        const int32_t *m = s->rows.q[at].m;
-        const int8_t *k = s->rows.q[at].k;
-        uint8_t down = (uint8_t)(peak[0] - k[0]);
-        r[0][j] = shift_down(m[0], down);
-        e_col[0][j] = shift_down(m[2], down);
-        down = (uint8_t)(peak[1] - k[1]);
-        r[1][j] = shift_down(m[1], down);
-        e_col[1][j] = shift_down(m[3], down);
-        r[2][j] = shift_down(m[4], (uint8_t)(peak[2] - k[2]));
-        at = at == STLQF_ROWS - 1u ? 0u : (uint8_t)(at + 1u);
-    }
+     * the time column's e of the first two, ζ. */
+    int8_t peak[3];
+    int32_t rows[STLQF_COLS][STLQF_ROWS];
+    stlqf_align_q(s->rows.q, s->head, peak, rows);
+    const int32_t *r[3] = {rows[0], rows[1], rows[4]}, *e_col[2] = {rows[2], rows[3]};
     int8_t e_r[3];
     for (uint8_t ch = 0; ch < 3u; ch++) {
         e_r[ch] = (int8_t)(peak[ch] - row_q[ch]);

@@ -58,6 +58,12 @@ typedef struct {
     longit_q_t shared;
 } stlqf_q_t;
 
+/* A filtered row in FIXED: mantissas and an exponent per input. */
+typedef struct {
+    int32_t m[STLQF_COLS]; /* mantissas, |m| < 2^27 */
+    int8_t k[3]; /* m 2^k is the exact row at the inputs' Q + 6: v̇'s, ½ρv²'s, ζ's */
+} stlqf_row_q_t;
+
 typedef struct {
     longit_t model;
     union {
@@ -70,13 +76,23 @@ typedef struct {
     } hist; /* v̇, ½ρv², z of the last two samples, newest first */
     union {
         float f[STLQF_ROWS][STLQF_COLS];
-        struct {
-            int32_t m[STLQF_COLS]; /* mantissas, |m| < 2^27 */
-            int8_t k[3]; /* m 2^k is the exact row at the inputs' Q + 6: v̇'s, ½ρv²'s, ζ's */
-        } q[STLQF_ROWS];
+        stlqf_row_q_t q[STLQF_ROWS];
     } rows; /* a ring: the oldest at head once full */
     uint8_t mode, n_hist, n_rows, head;
 } stlqf_state_t;
+
+/* The window's rows in int32, one exponent per input (the largest row's, into peak[3]):
+ * out[c][j] is the ring's row j from head, mantissa c, times 2^(k - peak) rounded half up
+ * (0 past 30 bits down). On the AVR in assembly (stlqf_align_avr.S); the C twin gives the
+ * same bits. */
+void stlqf_align_q_c(const stlqf_row_q_t *rows, uint8_t head, int8_t *peak,
+                     int32_t (*out)[STLQF_ROWS]);
+#if defined(__AVR__)
+void stlqf_align_q(const stlqf_row_q_t *rows, uint8_t head, int8_t *peak,
+                   int32_t (*out)[STLQF_ROWS]);
+#else
+#define stlqf_align_q stlqf_align_q_c
+#endif
 
 extern const ROM estimator_t stlqf_estimator;
 
