@@ -125,9 +125,6 @@ eso_front_q_avr:
         call    eso_observer_avr
         tst     r13             ; the saturations, into *status
         breq    1f
-        movw    r30, r16
-        ld      r18, Z
-        ori     r18, SATURATED
-        st      Z, r18
+        FLAG    16, r18
 1:      POP_RANGE 2, 17, 28, 29
         ret

@@ -90,15 +90,20 @@
 
 ; p (r25:r22) <- the int32 at m + off, plus P, saturated (flagged)
 .macro LOAD_ADD off
-        ldd     r22, Y+\off
-        ldd     r23, Y+\off+1
-        ldd     r24, Y+\off+2
-        ldd     r25, Y+\off+3
+        LDY     22, \off
         add     r22, r26
         adc     r23, r27
         adc     r24, r30
         adc     r25, r31
         SATS    22, 23, 24, 25, 14
+.endm
+
+; P <- (c x + b) x, Horner's step twice (c, b at m + c_off, b_off; x's sign register sgn)
+.macro HORNER2 c_off, b_off, sgn
+        LDY     22, \c_off
+        TIMES   \sgn
+        LOAD_ADD \b_off
+        TIMES   \sgn
 .endm
 
         .section .text.qcar_strut_over_kus_avr, "ax", @progbits
@@ -118,26 +123,14 @@ qcar_strut_over_kus_avr:
         mov     r10, r27
         mov     r11, r18
         ; the spring: ((s3 x + s2) x + s1) x, Q20
-        ldd     r22, Y+M_S3
-        ldd     r23, Y+M_S3+1
-        ldd     r24, Y+M_S3+2
-        ldd     r25, Y+M_S3+3
-        TIMES   XSIGN
-        LOAD_ADD M_S2
-        TIMES   XSIGN
+        HORNER2 M_S3, M_S2, XSIGN
         LOAD_ADD M_S1
         TIMES   XSIGN
         movw    r20, r10        ; |v|
         movw    r8, r26         ; the spring, kept
         movw    r10, r30
         ; the damper: (d2 v + d1) v, Q24
-        ldd     r22, Y+M_D2
-        ldd     r23, Y+M_D2+1
-        ldd     r24, Y+M_D2+2
-        ldd     r25, Y+M_D2+3
-        TIMES   VSIGN
-        LOAD_ADD M_D1
-        TIMES   VSIGN
+        HORNER2 M_D2, M_D1, VSIGN
         add     r8, r26         ; spring + damper, Q20
         adc     r9, r27
         adc     r10, r30
