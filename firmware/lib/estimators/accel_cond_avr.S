@@ -55,7 +55,7 @@ accel_cond_chan_avr:
         sbc     r25, r31
         SATC    22, 23, 24, 25
         SUB_AB  SATC                  ; A = d2
-        ; S = fx_rescale(d2, 16, ACCEL_QH): d2 2^5, saturated past the top six bits
+        ; S (r5:r2) = fx_rescale(d2, 16, ACCEL_QH): d2 2^5, saturated past the top six bits
         mov     r24, r21
         andi    r24, 0xfc
         breq    2f
@@ -68,14 +68,21 @@ accel_cond_chan_avr:
         mov     r19, r18
         movw    r20, r18
         subi    r21, 0x80
+        MOV4    2, 18
         rjmp    3f
-2:      .rept   5
-        lsl     r18
-        rol     r19
-        rol     r20
-        rol     r21
-        .endr
-3:      MOV4    2, 18
+2:      ldi     r22, 32         ; each byte times 32, its high part ORed below the next's
+        mul     r18, r22
+        movw    r2, r0
+        mul     r19, r22
+        or      r3, r0
+        mov     r4, r1
+        mul     r20, r22
+        or      r4, r0
+        mov     r5, r1
+        mul     r21, r22
+        or      r5, r0
+        clr     r1
+3:
         ; dh = ((dh - dh c2) + S) - h1 c12
         LDY     22, CH_DH
         MOV4    8, 22           ; dh kept
