@@ -2,19 +2,24 @@
 ; through, in assembly; the C in frame.c is their twin on the host and gives the
 ; same bytes. Both run the CRC-32C as crc32c_update() in proto/crc32c.h does.
 ;
+; Where the UART's interrupts would cost more than a byte's time (uart.h,
+; uart_frame_polled), both run with interrupts off and serve the UART themselves
+; between bytes (UART_POLL); elsewhere the interrupts do.
+;
 ; uint8_t frame_rx_run(uint32_t *crc, uint8_t *dst, const uint8_t *src, uint8_t k)
 ; copies up to k bytes of a COBS block's data from the RX ring into the frame, up
 ; to a zero, running the CRC over them; returns how many it took (~30 cycles a
-; byte, ~41 in C).
+; byte and the service point, ~41 in C).
 ;
 ; frame_tx_run() puts bytes of a frame into the UART's TX ring, COBS-encoded, with
-; the CRC run over them on the way (~37 cycles a byte, ~49 in C).
+; the CRC run over them on the way (~37 cycles a byte and the service point, ~49 in C).
 ;
 ; uint8_t frame_tx_run(uint32_t *crc, uint8_t code, const uint8_t *data, uint8_t n)
 ; returns the COBS code of the block so far (1 + its bytes). A zero byte ends the
 ; block: its code goes into the placeholder (uart_tx_held), the zero's place is the
-; next block's placeholder, and everything before it is released to the UDRE
-; interrupt there and then, so a reply starts out while the rest is encoded
+; next block's placeholder, and everything before it is released to the UART (its
+; UDRE interrupt, or the service points) there and then, so a reply starts out while
+; the rest is encoded
 ; (uart_tx_close() releases the last block). No block reaches 254 bytes: frames are
 ; shorter (frame.c).
 
@@ -50,11 +55,42 @@
         lpm     CRC3, Z
 .endm
 
+; A service point: with interrupts off (POLLED_BEGIN), uart_serve if a byte is in or
+; UDR0 can take a released one (each status bit of UCSR0A where its interrupt's enable
+; is in UCSR0B: what would raise the interrupt); 9 cycles when there is nothing to do,
+; 2 with interrupts on. Uses Z and the flags, and r0 if it serves.
+.macro UART_POLL
+        brie    9f
+        lds     r30, _SFR_MEM_ADDR(UCSR0A)
+        lds     r31, _SFR_MEM_ADDR(UCSR0B)
+        and     r30, r31
+        andi    r30, _BV(RXC0) | _BV(UDRE0)
+        breq    9f
+        call    uart_serve
+9:
+.endm
+
+; Interrupts off if the frame path serves the UART (uart_frame_polled), SREG as it
+; was kept on the stack for POLLED_END. Uses r0 and the flags.
+.macro POLLED_BEGIN
+        in      r0, _SFR_IO_ADDR(SREG)
+        push    r0
+        lds     r0, uart_frame_polled
+        sbrc    r0, 0
+        cli
+.endm
+
+.macro POLLED_END
+        pop     r0
+        out     _SFR_IO_ADDR(SREG), r0
+.endm
+
         .section .text.frame_rx_run, "ax", @progbits
         .global frame_rx_run
 frame_rx_run:
         push    r28
         push    r29
+        POLLED_BEGIN
         movw    r26, r20                ; X: the received bytes
         movw    r28, r22                ; Y: where they go in the frame
         movw    r30, r24                ; the CRC, kept at r24:r25
@@ -65,7 +101,8 @@ frame_rx_run:
         mov     r19, r18                ; r19: bytes left of k
         tst     r19
         breq    2f
-1:      ld      BYTE, X+
+1:      UART_POLL
+        ld      BYTE, X+
         tst     BYTE
         breq    2f                      ; a zero: the block ends before it
         CRC32C_BYTE
@@ -79,6 +116,7 @@ frame_rx_run:
         std     Z+3, CRC3
         sub     r18, r19
         mov     r24, r18
+        POLLED_END
         pop     r29
         pop     r28
         ret
@@ -86,6 +124,7 @@ frame_rx_run:
         .section .text.frame_tx_run, "ax", @progbits
         .global frame_tx_run
 frame_tx_run:
+        POLLED_BEGIN
         movw    r26, r20                ; X: the data
         mov     CODE, r22
         movw    r30, r24
@@ -100,7 +139,8 @@ frame_tx_run:
         tst     N
         breq    done
 
-next:   ld      BYTE, X+
+next:   UART_POLL
+        ld      BYTE, X+
         CRC32C_BYTE
         ; COBS
         subi    ROOM, 1
@@ -123,10 +163,12 @@ done:   sts     uart_tx_write, W
         std     Z+2, CRC2
         std     Z+3, CRC3
         mov     r24, CODE
+        POLLED_END
         ret
 
-; The ring is full: wait for the UDRE interrupt to drain what was released.
-wait:   rcall   room
+; The ring is full: wait for the UART to drain what was released.
+wait:   UART_POLL
+        rcall   room
         subi    ROOM, 1
         brcs    wait
         rjmp    store

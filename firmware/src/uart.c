@@ -16,8 +16,11 @@ volatile uint8_t uart_rx_tail;
 volatile uint16_t uart_rx_lost;
 volatile uint8_t uart_tx_buf[UART_TX_SIZE] RING;
 volatile uint8_t uart_tx_head; /* released bytes end here */
-volatile uint8_t uart_tx_tail; /* advanced by the UDRE interrupt */
+volatile uint8_t uart_tx_tail; /* advanced by the UDRE interrupt or uart_serve */
 
+/* uart_serve tests UCSR0A & UCSR0B: each status bit where its interrupt's enable is. */
+typedef char uart_enables_match[(RXC0 == RXCIE0 && UDRE0 == UDRIE0) ? 1 : -1];
+uint8_t uart_frame_polled;
 uint8_t uart_tx_write; /* the next byte appended goes here */
 uint8_t uart_tx_held;  /* the placeholder */
 static uint32_t current_baud;
@@ -41,6 +44,7 @@ void uart_init(uint32_t baud)
     UCSR0C = _BV(UCSZ01) | _BV(UCSZ00); /* 8N1 */
     UCSR0B = UART_UCSR0B_ON;
     current_baud = baud;
+    uart_frame_polled = 10u * (F_CPU / baud) < UART_RX_ISR_CYCLES + UART_TX_ISR_CYCLES;
 }
 
 /* The board's idle loop. QEMU runs it ~30x slower, and so answers ~30x later,

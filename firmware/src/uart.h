@@ -1,5 +1,20 @@
-/* UART0 with interrupt-driven RX and TX rings of 256 bytes: 8-bit indices, which
- * the core reads and writes in one instruction and which wrap by themselves. */
+/* UART0 with RX and TX rings of 256 bytes: 8-bit indices, which the core reads and
+ * writes in one instruction and which wrap by themselves.
+ *
+ * Interrupts move the bytes between UDR0 and the rings, a byte at a time, but where
+ * they would cost more than a byte's time, a byte each way (UART_RX_ISR_CYCLES +
+ * UART_TX_ISR_CYCLES, 83, against 80 cycles at 2 Mbaud): there the frame path's loops
+ * (frame_avr.S), through which every byte of a request and of its reply goes, run
+ * with interrupts off and do that work at a service point a byte (uart_serve in
+ * uart_isr.S), for a fraction of an interrupt's cycles. The interrupt enables stay as
+ * they are (RXCIE0 on; UDRIE0 on while released bytes wait), so a service point's
+ * test is the interrupts' own condition, and the switch is clearing I and setting it
+ * back: a byte is taken or sent by exactly one of them. The loops' service points
+ * are ~40 cycles apart, well within the two byte times (160 cycles at 2 Mbaud) the
+ * receiver holds bytes for; between the loops, and below 2 Mbaud, the interrupts
+ * serve, so the idle wait, a step and every other handler run as before. (Polling at
+ * 1 Mbaud cost simavr's wire ~8 %: its UDR0 takes the next byte only once the last
+ * one is out, so a service point's latency adds to every byte's time.) */
 #ifndef VEHIL_UART_H
 #define VEHIL_UART_H
 
@@ -24,8 +39,6 @@ void uart_rx_release(uint8_t n);
 void uart_tx_open(void);
 void uart_tx_close(uint8_t code);
 
-/* The TX ring (uart.c; the UDRE interrupt in uart_isr.S advances the tail). Appending
- * is inline: every byte of every reply goes through it. */
 /* Each interrupt's cycles per byte, call and return included (uart_isr.S; vehil
  * profile --functions counts them). */
 #define UART_RX_ISR_CYCLES 44u
@@ -36,6 +49,11 @@ extern volatile uint8_t uart_tx_tail;
 extern uint8_t uart_tx_write;
 extern uint8_t uart_tx_held; /* the placeholder's slot (frame_tx_avr.S moves it too) */
 
+/* 1 where the frame path's loops serve the UART (see above), set by uart_init(). */
+extern uint8_t uart_frame_polled;
+
+/* The TX ring (uart.c; the UDRE interrupt or uart_serve advances the tail). Appending
+ * is inline: every byte of every reply goes through it. */
 static inline void uart_tx_put(uint8_t byte)
 {
     uint8_t w = uart_tx_write;

@@ -190,14 +190,19 @@ def figures(profile: Profile, files: dict | None = None) -> dict:
 
 
 # The link's parts, by the code that does them: the CRC's lines (the assembly loops'
-# CRC32C_BYTE, proto/crc32c.h's inline update), the loops of firmware/src/frame_avr.S
-# less their CRC (copying a request's bytes, COBS-encoding a reply into the TX ring).
+# CRC32C_BYTE, proto/crc32c.h's inline update); the UART served in the frame loops at
+# 2 Mbaud, where they run with interrupts off (firmware/src/uart.h: uart_serve and the
+# loops' lines of its macros); the loops of firmware/src/frame_avr.S less both
+# (copying a request's bytes, COBS-encoding a reply into the TX ring).
 _CRC_MACRO = "CRC32C_BYTE"
 _CRC_HEADER = "firmware/lib/proto/crc32c.h"
+_SERVE_MACROS = ("UART_POLL", "POLLED_BEGIN", "POLLED_END")
+_SERVE_FUNCTION = "uart_serve"
 _FRAME_LOOPS = ("frame_rx_run", "frame_tx_run")
 EXCHANGE_PARTS = (
     "RX interrupts",
     "TX interrupts",
+    "UART served in the frame loops",
     "CRC-32C",
     "COBS and copying",
     "fetch, dispatch, handler, the rest",
@@ -210,11 +215,17 @@ def _source(path: Path) -> tuple[str, ...]:
     return tuple(path.read_text().splitlines()) if path.exists() else ()
 
 
+def _macro(line: Line | None) -> str:
+    """The assembly source line's instruction or macro, without its label ('' for C)."""
+    if line is None or not line.file.endswith(".S"):
+        return ""
+    text = _source(DATA_ROOT / line.file)
+    words = text[line.line - 1].split(";")[0].split() if 0 < line.line <= len(text) else []
+    return words[1 if words and words[0].endswith(":") and len(words) > 1 else 0] if words else ""
+
+
 def _is_crc(line: Line | None) -> bool:
-    if line is None or line.file == _CRC_HEADER:
-        return line is not None
-    text = _source(DATA_ROOT / line.file) if line.file.endswith(".S") else ()
-    return 0 < line.line <= len(text) and text[line.line - 1].strip() == _CRC_MACRO
+    return (line is not None and line.file == _CRC_HEADER) or _macro(line) == _CRC_MACRO
 
 
 def exchange_parts(profile: Profile) -> dict[str, float]:
@@ -223,14 +234,19 @@ def exchange_parts(profile: Profile) -> dict[str, float]:
     irq = profile.interrupts()
     rx = float(irq.get("interrupt USART0_RX", np.zeros(1)).sum()) / per
     tx = float(irq.get("interrupt USART0_UDRE", np.zeros(1)).sum()) / per
-    crc_lines = [ln for ln in profile.hot_lines(len(profile.pc_cycles)) if _is_crc(ln.line)]
+    lines = profile.hot_lines(len(profile.pc_cycles))
+    crc_lines = [ln for ln in lines if _is_crc(ln.line)]
     crc = sum(ln.cycles for ln in crc_lines) / per
     crc_in_loops = sum(ln.cycles for ln in crc_lines if ln.function in _FRAME_LOOPS) / per
-    loops = sum(float(s.self.sum()) for s in profile.function_stats() if s.name in _FRAME_LOOPS)
-    cobs = loops / per - crc_in_loops
+    in_loops = [ln for ln in lines if ln.function in _FRAME_LOOPS]
+    points = sum(ln.cycles for ln in in_loops if _macro(ln.line) in _SERVE_MACROS) / per
+    stats = profile.function_stats()
+    served = points + sum(float(s.self.sum()) for s in stats if s.name == _SERVE_FUNCTION) / per
+    loops = sum(float(s.self.sum()) for s in stats if s.name in _FRAME_LOOPS)
+    cobs = loops / per - crc_in_loops - points
     idle = profile.function(profile.idle) if profile.idle else None
     busy = float((profile.window_cycles - (idle.self if idle else 0)).sum()) / per
-    values = (rx, tx, crc, cobs, busy - rx - tx - crc - cobs, busy)
+    values = (rx, tx, served, crc, cobs, busy - rx - tx - served - crc - cobs, busy)
     return dict(zip(EXCHANGE_PARTS, values, strict=True))
 
 
