@@ -366,9 +366,7 @@ static int32_t round_down64(int64_t x, uint8_t k)
  * are 14-bit. */
 typedef char stlqf_limits_are_14_bits[(COL_LIMIT >> 13) == 1 && (X_LIMIT >> 13) == 1 ? 1 : -1];
 
-/* in[0..n) · 2^-k (rounded half up) as int32 with |out| <= ROW_LIMIT (27 bits), from
- * int64 (the window's exact rows); returns k (0 for zeros). */
-static int8_t normalize64(const int64_t *in, int32_t *out, uint8_t n)
+int8_t stlqf_normalize64_c(const int64_t *in, int32_t *out, uint8_t n)
 {
     uint64_t peak = 0; /* the magnitudes' OR: the largest one's bit length, no comparisons */
     for (uint8_t i = 0; i < n; i++) {
@@ -438,7 +436,7 @@ static uint8_t configure_q(stlqf_q_t *q, const uint8_t *params, const int32_t ba
         col[1][j] = (int64_t)q->shared.g_cos * 65536;
     }
     for (uint8_t c = 0; c < 2u; c++) {
-        int8_t k = normalize64(col[c], narrow, STLQF_ROWS);
+        int8_t k = stlqf_normalize64(col[c], narrow, STLQF_ROWS);
         q->e_g[c] = (int8_t)(k + weigh(q->band, narrow, q->x_g[c]) - 42);
     }
     q->g_gg[0] = dot_q(q->x_g[0], q->x_g[0]);
@@ -470,11 +468,11 @@ static void filter_q(const stlqf_q_t *q, const int32_t *x, const int32_t h[2][3]
     for (uint8_t c = 0; c < 2u; c++) {
         const int64_t pair[2] = {row[c], row[2u + c]};
         int32_t out[2];
-        k[c] = normalize64(pair, out, 2);
+        k[c] = stlqf_normalize64(pair, out, 2);
         m[c] = out[0];
         m[2u + c] = out[1];
     }
-    k[2] = normalize64(&row[4], &m[4], 1);
+    k[2] = stlqf_normalize64(&row[4], &m[4], 1);
 }
 
 /* a b 2^-n rounded half up, for a product that fits int32 at that scale: a kernel for

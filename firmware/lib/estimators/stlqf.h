@@ -94,6 +94,16 @@ void stlqf_align_q(const stlqf_row_q_t *rows, uint8_t head, int8_t *peak,
 #define stlqf_align_q stlqf_align_q_c
 #endif
 
+/* in[0..n) · 2^-k (rounded half up) as int32 with |out| <= 2^27 - 1, from int64 (the
+ * window's exact rows); returns k (0 for zeros). On the AVR in assembly
+ * (stlqf_norm64_avr.S); the C twin gives the same bits. */
+int8_t stlqf_normalize64_c(const int64_t *in, int32_t *out, uint8_t n);
+#if defined(__AVR__)
+int8_t stlqf_normalize64(const int64_t *in, int32_t *out, uint8_t n);
+#else
+#define stlqf_normalize64 stlqf_normalize64_c
+#endif
+
 extern const ROM estimator_t stlqf_estimator;
 
 #endif
