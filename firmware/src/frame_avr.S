@@ -26,6 +26,7 @@
 #include <avr/io.h>
 
 #include "uart.h"
+#include "uart_serve.inc"
 
 #define N       r18
 #define CODE    r19
@@ -55,19 +56,27 @@
         lpm     CRC3, Z
 .endm
 
-; A service point: with interrupts off (POLLED_BEGIN), uart_serve if a byte is in or
+; A service point: with interrupts off (POLLED_BEGIN), to \stub if a byte is in or
 ; UDR0 can take a released one (each status bit of UCSR0A where its interrupt's enable
-; is in UCSR0B: what would raise the interrupt); 9 cycles when there is nothing to do,
-; 2 with interrupts on. Uses Z and the flags, and r0 if it serves.
-.macro UART_POLL
-        brie    9f
+; is in UCSR0B: what would raise the interrupt), which serves them (SERVE_STUB) and
+; comes back to \back; 9 cycles when there is nothing to do, 2 with interrupts on.
+; Uses Z and the flags, and r0 if it serves.
+.macro UART_POLL stub, back
+        brie    \back
         lds     r30, _SFR_MEM_ADDR(UCSR0A)
         lds     r31, _SFR_MEM_ADDR(UCSR0B)
         and     r30, r31
         andi    r30, _BV(RXC0) | _BV(UDRE0)
-        breq    9f
-        call    uart_serve
-9:
+        breq    \back
+        rjmp    \stub
+\back:
+.endm
+
+; A service point's work, out of its loop (uart_serve.inc), then back.
+.macro SERVE_STUB stub, back
+\stub:
+        UART_SERVE
+        rjmp    \back
 .endm
 
 ; Interrupts off if the frame path serves the UART (uart_frame_polled), SREG as it
@@ -101,7 +110,7 @@ frame_rx_run:
         mov     r19, r18                ; r19: bytes left of k
         tst     r19
         breq    2f
-1:      UART_POLL
+1:      UART_POLL rx_serve, rx_served
         ld      BYTE, X+
         tst     BYTE
         breq    2f                      ; a zero: the block ends before it
@@ -120,6 +129,7 @@ frame_rx_run:
         pop     r29
         pop     r28
         ret
+        SERVE_STUB rx_serve, rx_served
 
         .section .text.frame_tx_run, "ax", @progbits
         .global frame_tx_run
@@ -139,7 +149,7 @@ frame_tx_run:
         tst     N
         breq    done
 
-next:   UART_POLL
+next:   UART_POLL tx_serve, tx_served
         ld      BYTE, X+
         CRC32C_BYTE
         ; COBS
@@ -167,7 +177,7 @@ done:   sts     uart_tx_write, W
         ret
 
 ; The ring is full: wait for the UART to drain what was released.
-wait:   UART_POLL
+wait:   UART_POLL wait_serve, wait_served
         rcall   room
         subi    ROOM, 1
         brcs    wait
@@ -190,6 +200,9 @@ zero:   st      Z, BYTE                 ; 0 until the block ends
         inc     W
         ldi     CODE, 1
         rjmp    count
+
+        SERVE_STUB tx_serve, tx_served
+        SERVE_STUB wait_serve, wait_served
 
 ; ROOM = tail - W - 1: the bytes that fit before the ring is full.
 room:   lds     ROOM, uart_tx_tail

@@ -16,9 +16,9 @@ volatile uint8_t uart_rx_tail;
 volatile uint16_t uart_rx_lost;
 volatile uint8_t uart_tx_buf[UART_TX_SIZE] RING;
 volatile uint8_t uart_tx_head; /* released bytes end here */
-volatile uint8_t uart_tx_tail; /* advanced by the UDRE interrupt or uart_serve */
+volatile uint8_t uart_tx_tail; /* advanced by the UDRE interrupt or a service point */
 
-/* uart_serve tests UCSR0A & UCSR0B: each status bit where its interrupt's enable is. */
+/* A service point tests UCSR0A & UCSR0B: each status bit where its interrupt's enable is. */
 typedef char uart_enables_match[(RXC0 == RXCIE0 && UDRE0 == UDRIE0) ? 1 : -1];
 uint8_t uart_frame_polled;
 uint8_t uart_tx_write; /* the next byte appended goes here */

@@ -5,8 +5,8 @@
  * they would cost more than a byte's time, a byte each way (UART_RX_ISR_CYCLES +
  * UART_TX_ISR_CYCLES, 83, against 80 cycles at 2 Mbaud): there the frame path's loops
  * (frame_avr.S), through which every byte of a request and of its reply goes, run
- * with interrupts off and do that work at a service point a byte (uart_serve in
- * uart_isr.S), for a fraction of an interrupt's cycles. The interrupt enables stay as
+ * with interrupts off and do that work at a service point a byte (UART_SERVE in
+ * uart_serve.inc, the interrupts' own code), for a fraction of an interrupt's cycles. The interrupt enables stay as
  * they are (RXCIE0 on; UDRIE0 on while released bytes wait), so a service point's
  * test is the interrupts' own condition, and the switch is clearing I and setting it
  * back: a byte is taken or sent by exactly one of them. The loops' service points
@@ -52,7 +52,7 @@ extern uint8_t uart_tx_held; /* the placeholder's slot (frame_tx_avr.S moves it 
 /* 1 where the frame path's loops serve the UART (see above), set by uart_init(). */
 extern uint8_t uart_frame_polled;
 
-/* The TX ring (uart.c; the UDRE interrupt or uart_serve advances the tail). Appending
+/* The TX ring (uart.c; the UDRE interrupt or a service point advances the tail). Appending
  * is inline: every byte of every reply goes through it. */
 static inline void uart_tx_put(uint8_t byte)
 {

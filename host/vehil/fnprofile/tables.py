@@ -191,13 +191,12 @@ def figures(profile: Profile, files: dict | None = None) -> dict:
 
 # The link's parts, by the code that does them: the CRC's lines (the assembly loops'
 # CRC32C_BYTE, proto/crc32c.h's inline update); the UART served in the frame loops at
-# 2 Mbaud, where they run with interrupts off (firmware/src/uart.h: uart_serve and the
-# loops' lines of its macros); the loops of firmware/src/frame_avr.S less both
-# (copying a request's bytes, COBS-encoding a reply into the TX ring).
+# 2 Mbaud, where they run with interrupts off (firmware/src/uart.h: the loops' lines
+# of the macros that test, serve and switch); the loops of firmware/src/frame_avr.S
+# less both (copying a request's bytes, COBS-encoding a reply into the TX ring).
 _CRC_MACRO = "CRC32C_BYTE"
 _CRC_HEADER = "firmware/lib/proto/crc32c.h"
-_SERVE_MACROS = ("UART_POLL", "POLLED_BEGIN", "POLLED_END")
-_SERVE_FUNCTION = "uart_serve"
+_SERVE_MACROS = ("UART_POLL", "SERVE_STUB", "POLLED_BEGIN", "POLLED_END")
 _FRAME_LOOPS = ("frame_rx_run", "frame_tx_run")
 EXCHANGE_PARTS = (
     "RX interrupts",
@@ -239,11 +238,9 @@ def exchange_parts(profile: Profile) -> dict[str, float]:
     crc = sum(ln.cycles for ln in crc_lines) / per
     crc_in_loops = sum(ln.cycles for ln in crc_lines if ln.function in _FRAME_LOOPS) / per
     in_loops = [ln for ln in lines if ln.function in _FRAME_LOOPS]
-    points = sum(ln.cycles for ln in in_loops if _macro(ln.line) in _SERVE_MACROS) / per
-    stats = profile.function_stats()
-    served = points + sum(float(s.self.sum()) for s in stats if s.name == _SERVE_FUNCTION) / per
-    loops = sum(float(s.self.sum()) for s in stats if s.name in _FRAME_LOOPS)
-    cobs = loops / per - crc_in_loops - points
+    served = sum(ln.cycles for ln in in_loops if _macro(ln.line) in _SERVE_MACROS) / per
+    loops = sum(float(s.self.sum()) for s in profile.function_stats() if s.name in _FRAME_LOOPS)
+    cobs = loops / per - crc_in_loops - served
     idle = profile.function(profile.idle) if profile.idle else None
     busy = float((profile.window_cycles - (idle.self if idle else 0)).sum()) / per
     values = (rx, tx, served, crc, cobs, busy - rx - tx - served - crc - cobs, busy)
