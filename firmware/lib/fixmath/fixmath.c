@@ -29,6 +29,8 @@ int64_t fx_round_shift(int64_t x, int8_t shift)
     return x < 0 ? -(int64_t)m : (int64_t)m;
 }
 
+int64_t fx_mul64_rs10_c(int32_t a, int32_t b) { return fx_round_shift((int64_t)a * b, 10); }
+
 int32_t fx_mul_wide(int32_t a, uint8_t qa, int32_t b, uint8_t qb, uint8_t q_out, uint8_t *status)
 {
     return fx_sat(fx_round_shift((int64_t)a * b, (int8_t)(qa + qb - q_out)), status);

@@ -183,6 +183,16 @@ int64_t fx_mul64(int32_t a, int32_t b);
 FX_INLINE int64_t fx_mul64(int32_t a, int32_t b) { return (int64_t)a * b; }
 #endif
 
+/* fx_round_shift(a · b, 10), ties away from zero, exact in int64: on the AVR fx_mul64's
+ * product rounded and shifted in the same kernel (fx_mul_avr.S, ~30 cycles past the
+ * product), where the C calls libgcc's 64-bit shift; the C twin gives the same bits. */
+int64_t fx_mul64_rs10_c(int32_t a, int32_t b);
+#if defined(__AVR__)
+int64_t fx_mul64_rs10(int32_t a, int32_t b);
+#else
+#define fx_mul64_rs10 fx_mul64_rs10_c
+#endif
+
 /* fx_mul_shr for a shift known only at run time, 1 <= s <= 62 (0 outside): on the AVR a
  * jump through a table to the assembly entry for that shift (fx_mul_avr.S), so the product
  * is still ~165 cycles and the same bits. status before s: the entry finds a, b and status

@@ -232,6 +232,48 @@ fx_mul64:
         MUL64
         ret
 
+; fx_mul64_rs10(a, b): fx_round_shift(a · b, 10) (ties away from zero) as
+; floor((P + 2^9 - [P < 0]) 2^-10): one add, a byte dropped and two bit shifts, where the C
+; called libgcc's 64-bit shift, compare and negate (~150 cycles more).
+        .section .text.fx_mul64_rs10, "ax", @progbits
+        .global fx_mul64_rs10
+fx_mul64_rs10:
+        MUL64
+        ldi     r26, 0xff       ; + 2^9 - 1 where P < 0, + 2^9 otherwise
+        ldi     r27, 0x01
+        tst     r25
+        brmi    1f
+        clr     r26
+        ldi     r27, 0x02
+1:      add     r18, r26
+        adc     r19, r27
+        adc     r20, r1
+        adc     r21, r1
+        adc     r22, r1
+        adc     r23, r1
+        adc     r24, r1
+        adc     r25, r1
+        mov     r18, r19        ; >> 8, then >> 2
+        mov     r19, r20
+        mov     r20, r21
+        mov     r21, r22
+        mov     r22, r23
+        mov     r23, r24
+        mov     r24, r25
+        lsl     r25
+        sbc     r25, r25
+        .rept   2
+        asr     r25
+        ror     r24
+        ror     r23
+        ror     r22
+        ror     r21
+        ror     r20
+        ror     r19
+        ror     r18
+        .endr
+        ret
+
 ; fx_mul_shr_n(a, b, status, s): fx_mul_hN for a shift known only at run time, by a jump
 ; through a table of the entries (in .progmem, below 64 KB: LPM with a 16-bit Z; gs()
 ; lets the linker add a stub where an entry lies past ijmp's 128 KB). a, b and status sit
