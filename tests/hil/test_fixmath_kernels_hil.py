@@ -1,10 +1,11 @@
 """fixmath's assembly kernels and the estimator steps written in assembly against their C
 twins, through the estimators that call them, on the chip and in the native build, answer
 for answer, fed inputs past every range (the shipped drives never leave the physical one):
-MANF FIXED on wheel speeds; ESO FIXED (its front, eso_avr.S with accel_cond_avr.S: the
-conditioning channels and the observers) on accelerations, on configurations that take each
-factor's shift and sign through its range (T, the corners, the post high-pass off, the 1 kHz
-retune, variant B with the controller on)."""
+MANF FIXED on wheel speeds; ESO FIXED (eso_avr.S with accel_cond_avr.S: the conditioning
+channels and the observers, and for variant A the road, the controller's call and the
+outputs) on accelerations, on configurations that take each factor's shift and sign through
+its range (T, the corners, the post high-pass off, the 1 kHz retune, variant B with the
+controller on, variant A with it on)."""
 
 import struct
 
@@ -86,6 +87,7 @@ def _accelerations(seed: int) -> list[bytes]:
         {"T": 0.001, "eps": 0.003, "design": 1, "road_from": 1, "active": 0},  # the retune
         {"T": 2e-4, "eps": 2.0, "f_hp": 0.02, "f_post": 0.0, "active": 0},  # tiny factors
         {"T": 0.05, "eps": 0.5, "f_hp": 10.0, "f_lp": 9.0, "f_post": 5.0, "variant": 1},
+        {"active": 1},  # variant A with the controller: the assembly's whole step
     ],
 )
 def test_eso_fixed_gives_the_native_builds_bits_past_every_range(built, params) -> None:  # noqa: ANN001

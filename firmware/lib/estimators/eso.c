@@ -74,20 +74,50 @@ void eso_front_q_c(eso_q_t *s, const uint8_t *in, uint8_t *status)
 }
 
 #if defined(__AVR__)
-#define eso_front_q eso_front_q_avr
+#define eso_front_q(s, in, status) eso_front_q_avr(s, in, status, NULL, 0)
 /* eso_avr.S reads eso_q_t at these offsets */
 #define AT(name, ok) typedef char eso_at_##name[(ok) ? 1 : -1]
+AT(model, offsetof(eso_q_t, ecu.model) == 35);
+AT(r_m, offsetof(qcar_q_t, r_m_us) == 16 && offsetof(qcar_q_t, r_m_s) == 19);
+AT(ctrl, offsetof(eso_q_t, ecu.ctrl) == 77 && offsetof(susp_ctrl_q_t, active) == 25);
 AT(ch0, offsetof(eso_q_t, ecu.ch[0]) == 103);
 AT(ch1, offsetof(eso_q_t, ecu.ch[1]) == 103 + 36);
+AT(u, offsetof(eso_q_t, ecu.u) == 175);
 AT(cond, offsetof(eso_q_t, ecu.cond) == 0);
 AT(k, offsetof(eso_q_t, k) == 179 && sizeof(fx_xfactor_t) == 5);
 AT(z, offsetof(eso_q_t, z) == 199);
 AT(acc, offsetof(eso_q_t, acc) == 199 + 24);
+AT(fnl, offsetof(eso_q_t, fnl) == 199 + 32);
 AT(model_in, offsetof(eso_q_t, model_in) == 199 + 36);
 #undef AT
 #else
 #define eso_front_q eso_front_q_c
 #endif
+
+/* The step after the front: the road, the controller, the outputs. */
+static void back_q(eso_state_t *st, uint8_t *out, uint8_t *status)
+{
+    eso_q_t *s = &st->u.q;
+    const qcar_q_t *m = &s->ecu.model;
+    int32_t *z = s->z;
+    int32_t dx = fx_sub(z[0], z[3], status), dv = fx_sub(z[1], z[4], status);
+    susp_est_q_t est = {z[0], z[1], z[3], z[4], z[2], z[5], 0};
+    s->fnl = st->variant ? qcar_strut_nl_q(m, dx, dv, status) : 0;
+    if (st->variant) { /* variant B: the model's share leaves the lumped disturbances */
+        est.F1 = fx_sub(z[2], fx_mul_f(s->fnl, m->inv_m_s, status), status);
+        est.F2 = fx_add(z[5], fx_mul_f(s->fnl, m->inv_m_us, status), status);
+    }
+    /* x̂_r = x̂_us + (m_us F̂2 - strut)/k_us, each term over k_us in metres Q28 */
+    int32_t x_r = fx_add(est.x_us, fx_mul_f(est.F2, m->r_m_us, status), status);
+    if (st->road_from) { /* the strut from the body: -m_s F̂1 */
+        x_r = fx_add(x_r, fx_mul_f(est.F1, m->r_m_s, status), status);
+    } else { /* the nominal strut at x̂ */
+        x_r = fx_sub(x_r, qcar_strut_over_kus_q(m, dx, dv, status), status);
+    }
+    est.x_r = x_r;
+    s->ecu.u = susp_ctrl_step_q(&s->ecu.ctrl, &est, status);
+    susp_ecu_put_q(out, &est, s->ecu.u);
+}
 
 __attribute__((flatten, noinline)) static uint8_t step_q(eso_state_t *st, const uint8_t *in, uint8_t *out)
 {
@@ -100,24 +130,14 @@ __attribute__((flatten, noinline)) static uint8_t step_q(eso_state_t *st, const 
         s->acc[0] = fx_add(z[2], fx_mul_f(du, m->inv_m_s, &status), &status);
         s->acc[1] = fx_sub(z[5], fx_mul_f(du, m->inv_m_us, &status), &status);
     }
+#if defined(__AVR__)
+    if (!st->variant) { /* variant A: back_q's work in eso_avr.S too, in the front's frame */
+        eso_front_q_avr(s, in, &status, out, st->road_from);
+        return status;
+    }
+#endif
     eso_front_q(s, in, &status);
-    int32_t dx = fx_sub(z[0], z[3], &status), dv = fx_sub(z[1], z[4], &status);
-    susp_est_q_t est = {z[0], z[1], z[3], z[4], z[2], z[5], 0};
-    s->fnl = st->variant ? qcar_strut_nl_q(m, dx, dv, &status) : 0;
-    if (st->variant) { /* variant B: the model's share leaves the lumped disturbances */
-        est.F1 = fx_sub(z[2], fx_mul_f(s->fnl, m->inv_m_s, &status), &status);
-        est.F2 = fx_add(z[5], fx_mul_f(s->fnl, m->inv_m_us, &status), &status);
-    }
-    /* x̂_r = x̂_us + (m_us F̂2 - strut)/k_us, each term over k_us in metres Q28 */
-    int32_t x_r = fx_add(est.x_us, fx_mul_f(est.F2, m->r_m_us, &status), &status);
-    if (st->road_from) { /* the strut from the body: -m_s F̂1 */
-        x_r = fx_add(x_r, fx_mul_f(est.F1, m->r_m_s, &status), &status);
-    } else { /* the nominal strut at x̂ */
-        x_r = fx_sub(x_r, qcar_strut_over_kus_q(m, dx, dv, &status), &status);
-    }
-    est.x_r = x_r;
-    s->ecu.u = susp_ctrl_step_q(&s->ecu.ctrl, &est, &status);
-    susp_ecu_put_q(out, &est, s->ecu.u);
+    back_q(st, out, &status);
     return status;
 }
 

@@ -48,12 +48,15 @@ typedef struct {
 enum { ESO_K_T, ESO_K_G1, ESO_K_G2, ESO_K_G3 }; /* eso_q_t's factors k */
 
 /* The fixed-point step's front: both conditioning channels (a_s, a_us as the SAMPLE carries
- * them), then both observers' Euler steps (eq. 12) on s->acc. On the AVR an assembly routine
- * (eso_avr.S with accel_cond_avr.S) that keeps the channels, z, e and the sums in registers
- * across the products; the C twin gives the same bits on the host. */
+ * them), then both observers' Euler steps (eq. 12) on s->acc (or z3, z6: model_in). On the
+ * AVR an assembly routine (eso_avr.S with accel_cond_avr.S) that keeps the channels, z, e and
+ * the sums in registers across the products; the C twin gives the same bits on the host.
+ * Given out, the assembly does the variant-A rest of the step too (eso.c's back_q: the road
+ * from the nominal strut or, road_from, from the body; the controller; the outputs). */
 void eso_front_q_c(eso_q_t *s, const uint8_t *in, uint8_t *status);
 #if defined(__AVR__)
-void eso_front_q_avr(eso_q_t *s, const uint8_t *in, uint8_t *status);
+void eso_front_q_avr(eso_q_t *s, const uint8_t *in, uint8_t *status, uint8_t *out,
+                     uint8_t road_from);
 #endif
 
 extern const ROM estimator_t eso_estimator;

@@ -5,17 +5,29 @@
 ; its arguments; the channels' and the observers' saturations are counted in r13 and ORed
 ; into *status once.
 ;
+; Given out, the variant-A rest of the step (eso.c's back_q) follows in the same frame:
+; Δx̂ and Δẋ̂, the strut over k_us (quarter_car_avr.S) or, road_from, the body's -m_s F̂1, the
+; road x̂_r, the outputs from z, the controller (susp_ctrl_step_q, reading the outputs as
+; the estimate) and u.
+;
 ; avr-gcc's interface: s (eso_q_t) in r25:r24, in (the SAMPLE's a_s, a_us) in r23:r22,
-; status in r21:r20 (moved to r17:r16, where fx_mul_f_avr's entries take it). Saves r2-r17,
-; r28, r29; r1 is left 0.
+; status in r21:r20 (moved to r17:r16, where fx_mul_f_avr's entries take it), out in
+; r19:r18 (NULL: the front alone), road_from in r16. Saves r2-r17, r28, r29; r1 is left 0.
 
 #include "fixmath/fx_step_avr.inc"
 
-#define S_CH0 103               /* eso_q_t's offsets (eso.c checks them) */
+#define S_MODEL 35              /* eso_q_t's offsets (eso.c checks them) */
+#define M_R_M_US 16             /* qcar_q_t's m_us/k_us and m_s/k_us (fx_factor_t) */
+#define M_R_M_S 19
+#define S_CTRL 77
+#define CTRL_ACTIVE 25
+#define S_U 175
+#define S_CH0 103
 #define CH_SIZE 36
 #define S_K 179
 #define S_Z 199
 #define Z_ACC 24                /* acc[2] right after z[6] */
+#define Z_FNL 32
 #define Z_MODEL_IN 36           /* model_in after acc and fnl */
 #define K_T 0                   /* fx_xfactor_t: 5 bytes */
 #define K_G1 5
@@ -28,6 +40,26 @@
         LDY     18, \off
         ADD_AB  SATC
         STY     \off, 18
+.endm
+
+; r21:r20, r18 <- the model's factor at off (m, sh), Y at s->z
+.macro FACTOR off
+        movw    r30, r28
+        subi    r30, lo8(S_Z - S_MODEL - \off)
+        sbci    r31, hi8(S_Z - S_MODEL - \off)
+        ld      r20, Z+
+        ld      r21, Z+
+        ld      r18, Z
+.endm
+
+; n bytes from Y + off to X+
+.macro COPY off, n
+        .set    j, \off
+        .rept   \n
+        ldd     r0, Y+j
+        st      X+, r0
+        .set    j, j + 1
+        .endr
 .endm
 
 ; acc (r11:r8) <- the observer's acceleration input, its z at Y: s->acc's at Y + off when
@@ -80,6 +112,9 @@ eso_observer_avr:
         .global eso_front_q_avr
 eso_front_q_avr:
         PUSH_RANGE 2, 17, 28, 29
+        mov     r12, r16        ; road_from, for the back
+        push    r19             ; out waits on the stack
+        push    r18
         movw    r16, r20        ; status, where fx_mul_f_avr's entries take it
         clr     r13
         movw    r14, r24        ; the conditioning's coefficients: s's first field
@@ -123,7 +158,94 @@ eso_front_q_avr:
         sbiw    r28, 12         ; Y = s->z
         ACC     Z_ACC, Z_MODEL_IN
         call    eso_observer_avr
-        tst     r13             ; the saturations, into *status
+        pop     r10             ; out
+        pop     r11
+        mov     r0, r10
+        or      r0, r11
+        brne    7f
+        rjmp    6f              ; (breq does not reach past the back)
+7:        ; the back: Δx̂ = z0 - z3 (r23:r20) and Δẋ̂ = z1 - z4 (r19:r16), as the strut takes them
+        movw    r14, r16        ; status, where the strut takes it
+        LDY     20, 0
+        LDY     24, 12
+        sub     r20, r24
+        sbc     r21, r25
+        sbc     r22, r26
+        sbc     r23, r27
+        SATC    20, 21, 22, 23
+        LDY     16, 4
+        LDY     24, 16
+        sub     r16, r24
+        sbc     r17, r25
+        sbc     r18, r26
+        sbc     r19, r27
+        SATC    16, 17, 18, 19
+        tst     r12
+        brne    1f
+        movw    r24, r28        ; m = s->ecu.model
+        subi    r24, lo8(S_Z - S_MODEL)
+        sbci    r25, hi8(S_Z - S_MODEL)
+        call    qcar_strut_over_kus_avr
+        MOV4    6, 22           ; the strut over k_us, kept
+1:      movw    r16, r14        ; status, where fx_mul_f_avr takes it
+        LDY     22, 20          ; x̂_r = x̂_us + F̂2 m_us/k_us (F̂2 = z5)
+        FACTOR  M_R_M_US
+        call    fx_mul_f_avr
+        LDY     18, 12
+        ADD_AB  SATC
+        tst     r12
+        breq    2f
+        MOV4    6, 18           ; road_from: + F̂1 m_s/k_us (F̂1 = z2)
+        LDY     22, 8
+        FACTOR  M_R_M_S
+        call    fx_mul_f_avr
+        MOV4    18, 6
+        ADD_AB  SATC
+        rjmp    3f
+2:      MOV4    22, 6           ; else - the strut over k_us
+        SUB_AB  SATC
+3:      movw    r26, r10        ; the outputs: x̂_s, v̂_s, x̂_us, v̂_us, F̂1, F̂2 from z, x̂_r
+        COPY    0, 8
+        COPY    12, 8
+        COPY    8, 4
+        COPY    20, 4
+        st      X+, r18
+        st      X+, r19
+        st      X+, r20
+        st      X+, r21
+        std     Y+Z_FNL, r1     ; fnl = 0 (variant A)
+        std     Y+Z_FNL+1, r1
+        std     Y+Z_FNL+2, r1
+        std     Y+Z_FNL+3, r1
+        movw    r30, r28        ; u: the controller's, reading the outputs as its estimate
+        subi    r30, lo8(S_Z - S_CTRL - CTRL_ACTIVE)
+        sbci    r31, hi8(S_Z - S_CTRL - CTRL_ACTIVE)
+        ld      r24, Z
+        tst     r24
+        breq    4f
+        movw    r24, r28
+        subi    r24, lo8(S_Z - S_CTRL)
+        sbci    r25, hi8(S_Z - S_CTRL)
+        movw    r22, r10
+        movw    r20, r14
+        call    susp_ctrl_step_q
+        rjmp    5f
+4:      clr     r22             ; off: 0
+        clr     r23
+        movw    r24, r22
+5:      movw    r30, r28        ; s->ecu.u and the outputs' last
+        sbiw    r30, S_Z - S_U
+        st      Z+, r22
+        st      Z+, r23
+        st      Z+, r24
+        st      Z+, r25
+        movw    r26, r10
+        adiw    r26, 28
+        st      X+, r22
+        st      X+, r23
+        st      X+, r24
+        st      X+, r25
+6:      tst     r13             ; the saturations, into *status
         breq    1f
         FLAG    16, r18
 1:      POP_RANGE 2, 17, 28, 29
