@@ -29,6 +29,16 @@ int64_t fx_round_shift(int64_t x, int8_t shift)
     return x < 0 ? -(int64_t)m : (int64_t)m;
 }
 
+int16_t fx_mul_shr31_q15_c(int32_t a, int32_t b, uint8_t *status)
+{
+    int64_t r = ((int64_t)a * b + ((int64_t)1 << 30)) >> 31; /* |a b| < 2^62: no wrap */
+    if (r > INT16_MAX || r < -INT16_MAX) {
+        *status |= STATUS_SATURATED;
+        return r > 0 ? INT16_MAX : -INT16_MAX;
+    }
+    return (int16_t)r;
+}
+
 int64_t fx_mul64_rs10_c(int32_t a, int32_t b) { return fx_round_shift((int64_t)a * b, 10); }
 
 int32_t fx_mul_wide(int32_t a, uint8_t qa, int32_t b, uint8_t qb, uint8_t q_out, uint8_t *status)

@@ -183,6 +183,17 @@ int64_t fx_mul64(int32_t a, int32_t b);
 FX_INLINE int64_t fx_mul64(int32_t a, int32_t b) { return (int64_t)a * b; }
 #endif
 
+/* a · b · 2^-31 rounded half up, clamped to ±(2^15 - 1) (flagged), as int16: fx_mul_shr(a, b,
+ * 31) taken to Q15 (a Cholesky's L_ij from a sum and a reciprocal). On the AVR in one kernel
+ * (fx_mul_avr.S: fx_mul64's product, the rounding and the range by its top bytes); the C
+ * twin gives the same bits. */
+int16_t fx_mul_shr31_q15_c(int32_t a, int32_t b, uint8_t *status);
+#if defined(__AVR__)
+int16_t fx_mul_shr31_q15(int32_t a, int32_t b, uint8_t *status);
+#else
+#define fx_mul_shr31_q15 fx_mul_shr31_q15_c
+#endif
+
 /* fx_round_shift(a · b, 10), ties away from zero, exact in int64: on the AVR fx_mul64's
  * product rounded and shifted in the same kernel (fx_mul_avr.S, ~30 cycles past the
  * product), where the C calls libgcc's 64-bit shift; the C twin gives the same bits. */

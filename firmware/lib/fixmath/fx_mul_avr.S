@@ -232,6 +232,48 @@ fx_mul64:
         MUL64
         ret
 
+; fx_mul_shr31_q15(a, b, status): a · b · 2^-31 rounded half up, clamped to ±(2^15 - 1) (flagged):
+; the product's bytes 3..7 plus 2^30, one bit up, and a test of the top two bytes, where
+; fx_mul_h31 then a clamp in C checked two ranges.
+        .section .text.fx_mul_shr31_q15, "ax", @progbits
+        .global fx_mul_shr31_q15
+fx_mul_shr31_q15:
+        MUL64
+        subi    r21, 0xc0       ; + 2^30
+        sbci    r22, 0xff
+        sbci    r23, 0xff
+        sbci    r24, 0xff
+        sbci    r25, 0xff
+        bst     r25, 7          ; P's sign (P = 2^62 + 2^30 reads negative below)
+        lsl     r21             ; r = P 2^-31 mod 2^32 in r25:r22
+        rol     r22
+        rol     r23
+        rol     r24
+        rol     r25
+        mov     r0, r23         ; r in -(2^15 - 1) .. 2^15 - 1: r25:r24 r23's sign fill and,
+        lsl     r0              ; for a negative r, not -2^15
+        sbc     r0, r0
+        cp      r24, r0
+        cpc     r25, r0
+        brne    1f
+        tst     r0
+        brpl    2f
+        cpi     r22, 0
+        brne    2f
+        cpi     r23, 0x80
+        brne    2f
+1:      ldi     r22, 0xff       ; +-(2^15 - 1) by P's sign, flagged
+        ldi     r23, 0x7f
+        brtc    3f
+        ldi     r22, 0x01
+        ldi     r23, 0x80
+3:      movw    r30, r16
+        ld      r24, Z
+        ori     r24, SATURATED
+        st      Z, r24
+2:      movw    r24, r22
+        ret
+
 ; fx_mul64_rs10(a, b): fx_round_shift(a · b, 10) (ties away from zero) as
 ; floor((P + 2^9 - [P < 0]) 2^-10): one add, a byte dropped and two bit shifts, where the C
 ; called libgcc's 64-bit shift, compare and negate (~150 cycles more).

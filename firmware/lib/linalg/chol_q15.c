@@ -44,15 +44,6 @@ static uint32_t recip31(uint16_t l)
     return (uint32_t)hi << 16 | quotient_bits(&rem, l, low);
 }
 
-static int16_t to_q15(int32_t x, uint8_t *status)
-{
-    if (x > INT16_MAX || x < -INT16_MAX) {
-        *status |= STATUS_SATURATED;
-        return x > 0 ? INT16_MAX : -INT16_MAX;
-    }
-    return (int16_t)x;
-}
-
 /* (x - Σ l[k stride] y[k] 2^-15) / l_ii for k < n: one substitution row, the sum exact
  * and rounded once (fixmath's int16 × int32 dot product). */
 static int32_t substitute(int32_t x, const int16_t *l, const int32_t *y, uint8_t stride_l,
@@ -79,7 +70,7 @@ uint8_t chol_solve_q15(const int32_t *a, int32_t *b, uint8_t n, int16_t *l, int3
                 lj[j] = (int16_t)fx_isqrt32((uint32_t)s);
                 inv[j] = (int32_t)recip31((uint16_t)lj[j]); /* l_jj >= 32 */
             } else {
-                li[j] = to_q15(fx_mul_shr(s, inv[j], 31, status), status);
+                li[j] = fx_mul_shr31_q15(s, inv[j], status);
             }
         }
     }
