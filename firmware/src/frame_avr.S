@@ -3,8 +3,9 @@
 ; same bytes. Both run the CRC-32C as crc32c_update() in proto/crc32c.h does.
 ;
 ; Where the UART's interrupts would cost more than a byte's time (uart.h,
-; uart_frame_polled), both run with interrupts off and serve the UART themselves
-; between bytes (UART_POLL); elsewhere the interrupts do.
+; uart_frame_polled), both run a variant of their loop with interrupts off that
+; serves the UART itself between bytes (UART_POLL); elsewhere the interrupts do, and
+; the loops pay nothing for it.
 ;
 ; uint8_t frame_rx_run(uint32_t *crc, uint8_t *dst, const uint8_t *src, uint8_t k)
 ; copies up to k bytes of a COBS block's data from the RX ring into the frame, up
@@ -56,13 +57,12 @@
         lpm     CRC3, Z
 .endm
 
-; A service point: with interrupts off (POLLED_BEGIN), to \stub if a byte is in or
-; UDR0 can take a released one (each status bit of UCSR0A where its interrupt's enable
-; is in UCSR0B: what would raise the interrupt), which serves them (SERVE_STUB) and
-; comes back to \back; 9 cycles when there is nothing to do, 2 with interrupts on.
-; Uses Z and the flags, and r0 if it serves.
+; A service point of a loop's polled variant (interrupts off): to \stub if a byte is
+; in or UDR0 can take a released one (each status bit of UCSR0A where its interrupt's
+; enable is in UCSR0B: what would raise the interrupt), which serves them
+; (SERVE_STUB) and comes back to \back; 8 cycles when there is nothing to do. Uses Z
+; and the flags, and r0 if it serves.
 .macro UART_POLL stub, back
-        brie    \back
         lds     r30, _SFR_MEM_ADDR(UCSR0A)
         lds     r31, _SFR_MEM_ADDR(UCSR0B)
         and     r30, r31
@@ -79,13 +79,18 @@
         rjmp    \back
 .endm
 
-; Interrupts off if the frame path serves the UART (uart_frame_polled), SREG as it
-; was kept on the stack for POLLED_END. Uses r0 and the flags.
+; To \polled, the polled variant, if the frame loops serve the UART
+; (uart_frame_polled). Uses r0.
+.macro IF_POLLED polled
+        lds     r0, uart_frame_polled
+        sbrc    r0, 0
+        rjmp    \polled
+.endm
+
+; The polled variant's start and end: interrupts off, then SREG as it was.
 .macro POLLED_BEGIN
         in      r0, _SFR_IO_ADDR(SREG)
         push    r0
-        lds     r0, uart_frame_polled
-        sbrc    r0, 0
         cli
 .endm
 
@@ -99,7 +104,6 @@
 frame_rx_run:
         push    r28
         push    r29
-        POLLED_BEGIN
         movw    r26, r20                ; X: the received bytes
         movw    r28, r22                ; Y: where they go in the frame
         movw    r30, r24                ; the CRC, kept at r24:r25
@@ -110,8 +114,8 @@ frame_rx_run:
         mov     r19, r18                ; r19: bytes left of k
         tst     r19
         breq    2f
-1:      UART_POLL rx_serve, rx_served
-        ld      BYTE, X+
+        IF_POLLED rx_polled
+1:      ld      BYTE, X+
         tst     BYTE
         breq    2f                      ; a zero: the block ends before it
         CRC32C_BYTE
@@ -125,16 +129,58 @@ frame_rx_run:
         std     Z+3, CRC3
         sub     r18, r19
         mov     r24, r18
-        POLLED_END
         pop     r29
         pop     r28
         ret
+
+; The loop above with a service point a byte.
+rx_polled:
+        POLLED_BEGIN
+3:      UART_POLL rx_serve, rx_served
+        ld      BYTE, X+
+        tst     BYTE
+        breq    4f
+        CRC32C_BYTE
+        st      Y+, BYTE
+        dec     r19
+        brne    3b
+4:      POLLED_END
+        rjmp    2b
         SERVE_STUB rx_serve, rx_served
+
+; A byte (BYTE) into the TX ring at W, COBS-encoded; to \zero if it is a zero.
+.macro TX_STORE zero
+        mov     r30, W
+        ldi     r31, hi8(uart_tx_buf)   ; on a 256-byte boundary (uart.c)
+        tst     BYTE
+        breq    \zero                   ; the block ends: its code stands for this zero
+        st      Z, BYTE
+        inc     W
+        inc     CODE
+.endm
+
+; The zero's place holds the next block's code; this block's goes where it was held,
+; and the bytes up to the new placeholder go out. Interrupts off between the release
+; and UDRIE0 on: the UDRE interrupt may send every released byte and turn itself off
+; in between, and it must not come on again with nothing to send.
+.macro TX_ZERO
+        st      Z, BYTE                 ; 0 until the block ends
+        lds     r30, uart_tx_held
+        sts     uart_tx_held, W
+        st      Z, CODE
+        in      r31, _SFR_IO_ADDR(SREG)
+        cli
+        sts     uart_tx_head, W
+        ldi     r30, UART_UCSR0B_ON | (1 << UDRIE0)
+        sts     _SFR_MEM_ADDR(UCSR0B), r30
+        out     _SFR_IO_ADDR(SREG), r31
+        inc     W
+        ldi     CODE, 1
+.endm
 
         .section .text.frame_tx_run, "ax", @progbits
         .global frame_tx_run
 frame_tx_run:
-        POLLED_BEGIN
         movw    r26, r20                ; X: the data
         mov     CODE, r22
         movw    r30, r24
@@ -148,20 +194,14 @@ frame_tx_run:
         rcall   room
         tst     N
         breq    done
+        IF_POLLED tx_polled
 
-next:   UART_POLL tx_serve, tx_served
-        ld      BYTE, X+
+next:   ld      BYTE, X+
         CRC32C_BYTE
         ; COBS
         subi    ROOM, 1
         brcs    wait
-store:  mov     r30, W
-        ldi     r31, hi8(uart_tx_buf)   ; on a 256-byte boundary (uart.c)
-        tst     BYTE
-        breq    zero                    ; the block ends: its code stands for this zero
-        st      Z, BYTE
-        inc     W
-        inc     CODE
+store:  TX_STORE zero
 count:  dec     N
         brne    next
 
@@ -173,33 +213,39 @@ done:   sts     uart_tx_write, W
         std     Z+2, CRC2
         std     Z+3, CRC3
         mov     r24, CODE
-        POLLED_END
         ret
 
-; The ring is full: wait for the UART to drain what was released.
-wait:   UART_POLL wait_serve, wait_served
-        rcall   room
+; The ring is full: wait for the UDRE interrupt to drain what was released.
+wait:   rcall   room
         subi    ROOM, 1
         brcs    wait
         rjmp    store
 
-; The zero's place holds the next block's code; this block's goes where it was held,
-; and the bytes up to the new placeholder go out. Interrupts off between the release
-; and UDRIE0 on: the UDRE interrupt may send every released byte and turn itself off
-; in between, and it must not come on again with nothing to send.
-zero:   st      Z, BYTE                 ; 0 until the block ends
-        lds     r30, uart_tx_held
-        sts     uart_tx_held, W
-        st      Z, CODE
-        in      r31, _SFR_IO_ADDR(SREG)
-        cli
-        sts     uart_tx_head, W
-        ldi     r30, UART_UCSR0B_ON | (1 << UDRIE0)
-        sts     _SFR_MEM_ADDR(UCSR0B), r30
-        out     _SFR_IO_ADDR(SREG), r31
-        inc     W
-        ldi     CODE, 1
+zero:   TX_ZERO
         rjmp    count
+
+; The loop above with a service point a byte and in the wait for room.
+tx_polled:
+        POLLED_BEGIN
+p_next: UART_POLL tx_serve, tx_served
+        ld      BYTE, X+
+        CRC32C_BYTE
+        subi    ROOM, 1
+        brcs    p_wait
+p_store: TX_STORE p_zero
+p_count: dec    N
+        brne    p_next
+        POLLED_END
+        rjmp    done
+
+p_wait: UART_POLL wait_serve, wait_served
+        rcall   room
+        subi    ROOM, 1
+        brcs    p_wait
+        rjmp    p_store
+
+p_zero: TX_ZERO
+        rjmp    p_count
 
         SERVE_STUB tx_serve, tx_served
         SERVE_STUB wait_serve, wait_served

@@ -196,7 +196,7 @@ def figures(profile: Profile, files: dict | None = None) -> dict:
 # less both (copying a request's bytes, COBS-encoding a reply into the TX ring).
 _CRC_MACRO = "CRC32C_BYTE"
 _CRC_HEADER = "firmware/lib/proto/crc32c.h"
-_SERVE_MACROS = ("UART_POLL", "SERVE_STUB", "POLLED_BEGIN", "POLLED_END")
+_SERVE_MACROS = ("UART_POLL", "SERVE_STUB", "IF_POLLED", "POLLED_BEGIN", "POLLED_END")
 _FRAME_LOOPS = ("frame_rx_run", "frame_tx_run")
 EXCHANGE_PARTS = (
     "RX interrupts",
