@@ -1,10 +1,9 @@
 """Assembly kernels that only float32 paths use, which no bit-exact drive holds to their C
-twins, fixmath's fx_mul_f at every shift, which the drives reach only a few of, and
-fx_mul16x16, fx_norm16, fx_band16, fx_dot16_rows, fx_log2_q24, fx_isqrt32 and the quarter
-car's strut on every edge: a fixture project (tests/fixtures/kernels) builds an image whose
-probe estimator runs a kernel on each SAMPLE's operands, and its own check
-(check_kernels.py) holds the assembly on simavr to the C twin on the native board and to
-Python's integers, on edge and random operands."""
+twins, fixmath's fx_mul_f at every shift, which the drives reach only a few of, and the
+fixed-point kernels (fixmath's, the quarter car's strut, STLQF's) on every edge: a fixture
+project (tests/fixtures/kernels) builds an image whose probe estimator runs a kernel on
+each SAMPLE's operands, and its own check (check_kernels.py) holds the assembly on simavr
+to the C twin on the native board and to Python's integers, on edge and random operands."""
 
 import subprocess
 
@@ -27,4 +26,4 @@ def project_built() -> subprocess.CompletedProcess:
 def test_the_bfp24_kernels_on_simavr_give_the_c_twins_bits(project_built) -> None:  # noqa: ANN001
     done = project_pytest("check_kernels.py", PROJECT, CACHE)
     assert done.returncode == 0, done.stdout + done.stderr
-    assert "23 passed" in done.stdout
+    assert "25 passed" in done.stdout

@@ -109,6 +109,47 @@ int32_t fx_dot16_c(const int16_t *a, const int16_t *b, uint8_t n)
     return (int32_t)acc;
 }
 
+/* count more quotient bits of a restoring division by l, the remainder (below l < 2^15)
+ * in 16 bits */
+static inline uint16_t quotient_bits(uint16_t *rem, uint16_t l, uint8_t count)
+{
+    uint16_t q = 0, r = *rem;
+    for (; count != 0u; count--) {
+        r = (uint16_t)(r << 1);
+        q = (uint16_t)(q << 1);
+        if (r >= l) {
+            r = (uint16_t)(r - l);
+            q |= 1u;
+        }
+    }
+    *rem = r;
+    return q;
+}
+
+/* floor(2^31 / l) for 2 <= l < 2^15, restoring division with the remainder (below l) in
+ * 16 bits: the dividend's bits after its leading one are zeros, so the doublings before
+ * the quotient's first bit need no quotient (the first few taken at once), and the
+ * quotient is built in two 16-bit halves. */
+uint32_t fx_recip31_c(uint16_t l)
+{
+    uint16_t rem = 1;
+    uint8_t left = 31;
+    if (l > 4096u) {
+        rem = 4096;
+        left = 19;
+    } else if (l > 256u) {
+        rem = 256;
+        left = 23;
+    }
+    while (left != 0u && (uint16_t)(rem << 1) < l) {
+        rem = (uint16_t)(rem << 1);
+        left--;
+    }
+    uint8_t low = left > 16u ? 16u : left;
+    uint16_t hi = quotient_bits(&rem, l, (uint8_t)(left - low));
+    return (uint32_t)hi << 16 | quotient_bits(&rem, l, low);
+}
+
 /* The root's bits from the top, each kept where the root so far squared stays at most x;
  * its high byte from x's top half by 8 × 8 products (floor(sqrt(x)) >> 8 is
  * floor(sqrt(x >> 16))), its low byte by 16 × 16 ones. */

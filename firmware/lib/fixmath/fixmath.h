@@ -465,6 +465,16 @@ int32_t fx_dot16(const int16_t *a, const int16_t *b, uint8_t n);
 #define fx_dot16 fx_dot16_c
 #endif
 
+/* floor(2^31 / l) for 2 <= l < 2^15, exact. On the AVR in assembly (fx_recip_avr.S: the
+ * restoring division's steps written out, entered past the quotient's leading zeros); the
+ * C twin gives the same quotient. */
+uint32_t fx_recip31_c(uint16_t l);
+#if defined(__AVR__)
+uint32_t fx_recip31(uint16_t l);
+#else
+#define fx_recip31 fx_recip31_c
+#endif
+
 /* floor(sqrt(x)), exact. On the AVR in assembly (fx_isqrt_avr.S: the root's bits by
  * hardware products, unrolled, ~240 cycles where avr-gcc's C takes ~415); the C twin gives
  * the same root. */

@@ -2,48 +2,6 @@
 
 #include "fixmath/fixmath.h"
 
-/* count more quotient bits of a restoring division by l, the remainder (below l < 2^15)
- * in 16 bits */
-static inline uint16_t quotient_bits(uint16_t *rem, uint16_t l, uint8_t count)
-{
-    uint16_t q = 0, r = *rem;
-    for (; count != 0u; count--) {
-        r = (uint16_t)(r << 1);
-        q = (uint16_t)(q << 1);
-        if (r >= l) {
-            r = (uint16_t)(r - l);
-            q |= 1u;
-        }
-    }
-    *rem = r;
-    return q;
-}
-
-/* floor(2^31 / l) for 2 <= l < 2^15, restoring division with the remainder (below l) in
- * 16 bits: the dividend's bits after its leading one are zeros, so the doublings before
- * the quotient's first bit need no quotient (the first few taken at once), and the
- * quotient is built in two 16-bit halves (~250 cycles where libgcc's 32-bit division
- * costs ~600). */
-static uint32_t recip31(uint16_t l)
-{
-    uint16_t rem = 1;
-    uint8_t left = 31;
-    if (l > 4096u) {
-        rem = 4096;
-        left = 19;
-    } else if (l > 256u) {
-        rem = 256;
-        left = 23;
-    }
-    while (left != 0u && (uint16_t)(rem << 1) < l) {
-        rem = (uint16_t)(rem << 1);
-        left--;
-    }
-    uint8_t low = left > 16u ? 16u : left;
-    uint16_t hi = quotient_bits(&rem, l, (uint8_t)(left - low));
-    return (uint32_t)hi << 16 | quotient_bits(&rem, l, low);
-}
-
 /* (x - Σ l[k stride] y[k] 2^-15) / l_ii for k < n: one substitution row, the sum exact
  * and rounded once (fixmath's int16 × int32 dot product). */
 static int32_t substitute(int32_t x, const int16_t *l, const int32_t *y, uint8_t stride_l,
@@ -68,7 +26,7 @@ uint8_t chol_solve_q15(const int32_t *a, int32_t *b, uint8_t n, int16_t *l, int3
                     return 0;
                 }
                 lj[j] = (int16_t)fx_isqrt32((uint32_t)s);
-                inv[j] = (int32_t)recip31((uint16_t)lj[j]); /* l_jj >= 32 */
+                inv[j] = (int32_t)fx_recip31((uint16_t)lj[j]); /* l_jj >= 32 */
             } else {
                 li[j] = fx_mul_shr31_q15(s, inv[j], status);
             }
