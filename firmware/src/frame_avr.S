@@ -72,10 +72,17 @@
 \back:
 .endm
 
-; A service point's work, out of its loop (uart_serve.inc), then back.
-.macro SERVE_STUB stub, back
+; A service point's work, out of its loop (uart_serve.inc), then back. UART_SERVE
+; moves its byte through r0: where r0 holds the loop's byte, \keep saves it.
+.macro SERVE_STUB stub, back, keep=0
 \stub:
+.if \keep
+        push    r0
+.endif
         UART_SERVE
+.if \keep
+        pop     r0
+.endif
         rjmp    \back
 .endm
 
@@ -224,7 +231,8 @@ wait:   rcall   room
 zero:   TX_ZERO
         rjmp    count
 
-; The loop above with a service point a byte and in the wait for room.
+; The loop above with a service point a byte and in the wait for room (where r0 holds
+; the byte to store).
 tx_polled:
         POLLED_BEGIN
 p_next: UART_POLL tx_serve, tx_served
@@ -248,7 +256,7 @@ p_zero: TX_ZERO
         rjmp    p_count
 
         SERVE_STUB tx_serve, tx_served
-        SERVE_STUB wait_serve, wait_served
+        SERVE_STUB wait_serve, wait_served, 1
 
 ; ROOM = tail - W - 1: the bytes that fit before the ring is full.
 room:   lds     ROOM, uart_tx_tail
