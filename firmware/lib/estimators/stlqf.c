@@ -505,11 +505,17 @@ static int8_t residual(const stlqf_q_t *q, const int32_t *const r[3], const int8
     uint8_t st = 0; /* S keeps every term below 2^28: nothing saturates */
     int32_t g_term = product(prior[5], q->shared.g_cos, (int8_t)(S - e_term[2]), &st);
     for (uint8_t j = 0; j < STLQF_ROWS; j++) {
-        int32_t acc = shift_down(r[2][j], (uint8_t)(S - e_r[2])) - g_term;
-        for (uint8_t c = 0; c < 2u; c++) {
-            acc -= product(prior[2u * c + 1u], r[c][j], (int8_t)(S - e_term[c]), &st);
+        out[j] = shift_down(r[2][j], (uint8_t)(S - e_r[2])) - g_term;
+    }
+    for (uint8_t c = 0; c < 2u; c++) { /* the products rounded by a kernel, one call a column */
+        int8_t n = (int8_t)(S - e_term[c]);
+        if (n >= 1) {
+            fx_mul_shr_n_sub(prior[2u * c + 1u], &st, r[c], out, STLQF_ROWS, (uint8_t)n);
+            continue;
         }
-        out[j] = acc;
+        for (uint8_t j = 0; j < STLQF_ROWS; j++) {
+            out[j] -= product(prior[2u * c + 1u], r[c][j], n, &st);
+        }
     }
     return S;
 }

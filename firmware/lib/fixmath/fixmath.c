@@ -39,6 +39,14 @@ int16_t fx_mul_shr31_q15_c(int32_t a, int32_t b, uint8_t *status)
     return (int16_t)r;
 }
 
+void fx_mul_shr_n_sub_c(int32_t a, uint8_t *status, const int32_t *b, int32_t *acc, uint8_t n,
+                        uint8_t s)
+{
+    for (uint8_t j = 0; j < n; j++) {
+        acc[j] = (int32_t)((uint32_t)acc[j] - (uint32_t)fx_mul_shr_n(a, b[j], status, s));
+    }
+}
+
 int64_t fx_mul64_rs10_c(int32_t a, int32_t b) { return fx_round_shift((int64_t)a * b, 10); }
 
 int32_t fx_mul_wide(int32_t a, uint8_t qa, int32_t b, uint8_t qb, uint8_t q_out, uint8_t *status)

@@ -210,6 +210,18 @@ int64_t fx_mul64_rs10(int32_t a, int32_t b);
  * where it takes them. */
 int32_t fx_mul_shr_n(int32_t a, int32_t b, uint8_t *status, uint8_t s);
 
+/* acc[j] -= fx_mul_shr_n(a, b[j], status, s) for j < n, modulo 2^32: on the AVR the entry
+ * for s is looked up once and called for each product (fx_mul_avr.S); the C twin gives the
+ * same bits. */
+void fx_mul_shr_n_sub_c(int32_t a, uint8_t *status, const int32_t *b, int32_t *acc, uint8_t n,
+                        uint8_t s);
+#if defined(__AVR__)
+void fx_mul_shr_n_sub(int32_t a, uint8_t *status, const int32_t *b, int32_t *acc, uint8_t n,
+                      uint8_t s);
+#else
+#define fx_mul_shr_n_sub fx_mul_shr_n_sub_c
+#endif
+
 /* Exact 16 x 16 -> 32 products. On the AVR four hardware MULs inline (~15 cycles), where
  * avr-gcc calls __umulhisi3 or __usmulhisi3 (~25-35 with the call and its moves); the host
  * multiplies. Exact, so both builds give the same bits. */

@@ -341,3 +341,59 @@ fx_mul_shr_n:
         clr     r23
         movw    r24, r22
         ret
+
+; fx_mul_shr_n_sub(a, status, b, acc, n, s): acc[j] -= fx_mul_shr_n(a, b[j], status, s) for
+; j < n (modulo 2^32): the entry for s looked up once and called for each product, where a
+; call of fx_mul_shr_n each cost its jump through the table and the caller's moves. s
+; outside 1..62: acc unchanged (the products are 0).
+;
+; avr-gcc's interface: a in r25:r22, status in r21:r20, b in r19:r18, acc in r17:r16, n in
+; r14, s in r12. Saves r2-r8, r10, r11, r16, r17, r28, r29.
+        .section .text.fx_mul_shr_n_sub, "ax", @progbits
+        .global fx_mul_shr_n_sub
+fx_mul_shr_n_sub:
+        PUSH_RANGE 2, 8, 10, 11, 16, 17, 28, 29
+        movw    r2, r22         ; a
+        movw    r4, r24
+        movw    r28, r18        ; Y = b
+        movw    r6, r16         ; acc
+        movw    r16, r20        ; status, where the entries take it
+        mov     r8, r14         ; n
+        mov     r30, r12        ; s - 1, in 0..61
+        dec     r30
+        cpi     r30, 62
+        brsh    2f
+        lsl     r30             ; the entry's word in the table, into r11:r10
+        clr     r31
+        subi    r30, lo8(-(fx_mul_h_table))
+        sbci    r31, hi8(-(fx_mul_h_table))
+        lpm     r10, Z+
+        lpm     r11, Z
+1:      tst     r8
+        breq    2f
+        ld      r18, Y+         ; b[j]
+        ld      r19, Y+
+        ld      r20, Y+
+        ld      r21, Y+
+        movw    r22, r2
+        movw    r24, r4
+        movw    r30, r10
+        icall
+        movw    r30, r6         ; acc[j] -= the product
+        ld      r18, Z
+        ldd     r19, Z+1
+        ldd     r20, Z+2
+        ldd     r21, Z+3
+        sub     r18, r22
+        sbc     r19, r23
+        sbc     r20, r24
+        sbc     r21, r25
+        st      Z+, r18
+        st      Z+, r19
+        st      Z+, r20
+        st      Z+, r21
+        movw    r6, r30
+        dec     r8
+        rjmp    1b
+2:      POP_RANGE 2, 8, 10, 11, 16, 17, 28, 29
+        ret
