@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
-import ctypes
 import os
 import selectors
+import shutil
 import signal
 import subprocess
 import tempfile
@@ -16,17 +16,16 @@ import serial
 from vehil.boards.base import Board, BoardOptions
 from vehil.errors import BoardStartError
 
-_PR_SET_PDEATHSIG = 1
 
-
-def _die_with_parent() -> None:
-    """In the child: if the host dies without stopping us (SIGKILL, a timeout), so do we.
-    Linux only; elsewhere the host's normal stop() is all there is."""
-    try:
-        libc = ctypes.CDLL(None, use_errno=True)
-        libc.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL)
-    except (OSError, AttributeError):
-        pass
+def _dies_with_parent(argv: list[str]) -> list[str]:
+    """The command, made to get SIGKILL if the host dies without stopping it (SIGKILL, a
+    timeout) by util-linux's setpriv, which sets it and execs the command. Not by a
+    preexec_fn: Python code between fork and exec is unsafe in a host with threads (the
+    frame maker's, or gRPC's, whose fork handlers restart its poller in the child, where
+    closing the inherited descriptors made it abort the board before exec). Where there
+    is no setpriv (not Linux), the host's normal stop() is all there is."""
+    setpriv = shutil.which("setpriv")
+    return [setpriv, "--pdeathsig", "KILL", "--", *argv] if setpriv else argv
 
 
 class BoardProcess:
@@ -36,15 +35,16 @@ class BoardProcess:
         self.argv = argv
         self.name = name
         self._stderr = tempfile.TemporaryFile()  # noqa: SIM115  (lives as long as the process)
+        if shutil.which(argv[0]) is None:
+            raise BoardStartError(f"cannot start {name}: {argv[0]}: no such program")
         try:
             self.proc = subprocess.Popen(
-                argv,
+                _dies_with_parent(argv),
                 stdin=subprocess.DEVNULL,
                 cwd=cwd,
                 stdout=subprocess.PIPE,
                 stderr=self._stderr,
                 start_new_session=True,  # Ctrl-C reaches us, and we stop it in order
-                preexec_fn=_die_with_parent,
             )
         except OSError as exc:
             raise BoardStartError(f"cannot start {name}: {argv[0]}: {exc.strerror}") from None
