@@ -116,13 +116,11 @@ static const uint8_t *results_find(uint16_t behind, uint8_t *len)
     return *len != 0u ? results.u.slot[i].body : NULL;
 }
 
-/* A reply, encoded with its CRC straight into the TX buffer: head, then body. */
-static void send2(const request_t *req, uint8_t type, const uint8_t *head, uint8_t head_len,
-                  const uint8_t *body, uint8_t body_len)
+/* A reply, encoded with its CRC straight into the TX buffer. */
+static void send_body(const request_t *req, uint8_t type, const uint8_t *body, uint8_t body_len)
 {
     frame_tx_t tx;
-    frame_tx_begin(&tx, req->type, type, req->seq, (uint8_t)(head_len + body_len));
-    frame_tx_bytes(&tx, head, head_len);
+    frame_tx_begin(&tx, req->type, type, req->seq, body_len);
     frame_tx_bytes(&tx, body, body_len);
     frame_tx_end(&tx);
     core.stats.tx_frames++;
@@ -130,7 +128,7 @@ static void send2(const request_t *req, uint8_t type, const uint8_t *head, uint8
 
 static void send(const request_t *req, uint8_t type, uint8_t body_len)
 {
-    send2(req, type, core.body, body_len, NULL, 0);
+    send_body(req, type, core.body, body_len);
 }
 
 static void send_ack(const request_t *req)
@@ -200,11 +198,14 @@ static void on_ping(const request_t *r)
         send_error(r, ERR_BAD_LENGTH, room);
         return;
     }
-    uint8_t stamp[MSG_PONG_FIXED_SIZE];
+    /* The timestamp over the request's header (r holds what was in it), and the echo
+     * from the request's body where it lies: one run through the encoder. */
     msg_pong_t pong = {.timestamp = port_cycles()};
-    msg_pong_pack(&pong, stamp);
-    send2(r, MSG_PONG, stamp, sizeof stamp, r->body, r->body_len); /* the echo from the request */
+    msg_pong_pack(&pong, frame_echo_head(&core.rx));
+    frame_tx_echo(&core.rx, r->type, MSG_PONG, r->seq, r->body_len);
+    core.stats.tx_frames++;
 }
+VEHIL_STATIC_ASSERT(MSG_PONG_FIXED_SIZE == FRAME_HEADER_SIZE, "frame_tx_echo's head is a PONG's");
 
 /* Copies the parameter bytes a CONFIG(_PART) carries to `offset` of the staging area,
  * if they follow what it holds and fit; 0 when refused (and answered). */
@@ -341,7 +342,7 @@ static void on_sample(const request_t *r)
             return;
         }
         saturating_inc(&core.stats.replayed);
-        send2(r, MSG_RESULT, kept, len, NULL, 0);
+        send_body(r, MSG_RESULT, kept, len);
         return;
     }
     /* The step reads its inputs from the received frame and writes its outputs into
@@ -360,7 +361,7 @@ static void on_sample(const request_t *r)
     msg_result_pack(&res, body);
     uint8_t body_len = (uint8_t)(MSG_RESULT_FIXED_SIZE + out_len);
     results_keep(body, body_len);
-    send2(r, MSG_RESULT, body, body_len, NULL, 0);
+    send_body(r, MSG_RESULT, body, body_len);
 }
 
 static void on_get_stats(const request_t *r)

@@ -1,5 +1,7 @@
 #include "proto/frame.h"
 
+#include <stddef.h>
+
 #include "board/port.h"
 #include "port_tx.h"
 #include "proto/crc32c.h"
@@ -154,13 +156,40 @@ static uint8_t frame_tx_run(uint32_t *crc, uint8_t code, const uint8_t *data, ui
 }
 #endif
 
-void frame_tx_begin(frame_tx_t *tx, uint8_t answers, uint8_t type, uint16_t seq, uint8_t len)
+static void header_pack(uint8_t *header, uint8_t type, uint16_t seq, uint8_t len)
 {
-    const uint8_t header[FRAME_HEADER_SIZE] = {type, (uint8_t)seq, (uint8_t)(seq >> 8), len};
+    header[0] = type;
+    header[1] = (uint8_t)seq;
+    header[2] = (uint8_t)(seq >> 8);
+    header[3] = len;
+}
+
+static void tx_open(frame_tx_t *tx, uint8_t answers)
+{
     tx->crc = crc32c_update(CRC32C_INIT, answers);
     tx->code = 1;
     port_tx_open();
+}
+
+void frame_tx_begin(frame_tx_t *tx, uint8_t answers, uint8_t type, uint16_t seq, uint8_t len)
+{
+    uint8_t header[FRAME_HEADER_SIZE];
+    header_pack(header, type, seq, len);
+    tx_open(tx, answers);
     frame_tx_bytes(tx, header, sizeof header);
+}
+
+/* lead, then raw: one buffer. */
+typedef char frame_lead_before_raw
+    [offsetof(frame_rx_t, raw) == offsetof(frame_rx_t, lead) + FRAME_HEADER_SIZE ? 1 : -1];
+
+void frame_tx_echo(frame_rx_t *rx, uint8_t answers, uint8_t type, uint16_t seq, uint8_t body_len)
+{
+    frame_tx_t tx;
+    header_pack(rx->lead, type, seq, (uint8_t)(FRAME_HEADER_SIZE + body_len));
+    tx_open(&tx, answers);
+    frame_tx_bytes(&tx, rx->lead, (uint8_t)(2u * FRAME_HEADER_SIZE + body_len));
+    frame_tx_end(&tx);
 }
 
 void frame_tx_bytes(frame_tx_t *tx, const uint8_t *data, uint8_t n)

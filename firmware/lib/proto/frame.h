@@ -31,6 +31,7 @@ typedef enum {
 
 /* A frame being received. On FRAME_OK, raw holds type, seq, len, body and CRC. */
 typedef struct {
+    uint8_t lead[FRAME_HEADER_SIZE]; /* a reply's header, just before raw (frame_tx_echo) */
     uint8_t raw[FRAME_RAW_MAX];
     uint8_t n;      /* bytes decoded */
     uint8_t left;   /* data bytes left in the COBS block; 0: the next byte is a code */
@@ -65,5 +66,12 @@ typedef struct {
 void frame_tx_begin(frame_tx_t *tx, uint8_t answers, uint8_t type, uint16_t seq, uint8_t len);
 void frame_tx_bytes(frame_tx_t *tx, const uint8_t *data, uint8_t n);
 void frame_tx_end(frame_tx_t *tx);
+
+/* A reply that echoes the received frame's body after a head of FRAME_HEADER_SIZE bytes
+ * (a PONG), encoded in one run from the frame's own buffer: the head is written at
+ * frame_echo_head(), over the request's header (read it first), the reply's header
+ * goes just before it, and header, head and body go through the encoder at once. */
+static inline uint8_t *frame_echo_head(frame_rx_t *rx) { return rx->raw; }
+void frame_tx_echo(frame_rx_t *rx, uint8_t answers, uint8_t type, uint16_t seq, uint8_t body_len);
 
 #endif
