@@ -197,14 +197,25 @@ void frame_tx_bytes(frame_tx_t *tx, const uint8_t *data, uint8_t n)
     tx->code = frame_tx_run(&tx->crc, tx->code, data, n);
 }
 
-void frame_tx_end(frame_tx_t *tx)
+#if defined(__AVR__)
+/* firmware/src/frame_avr.S: the loop below in assembly. */
+uint8_t frame_tx_crc(uint32_t crc, uint8_t code);
+#else
+/* The CRC's bytes, low first, into the TX buffer, COBS-encoded but not run through the
+ * CRC; returns the block's code. */
+static uint8_t frame_tx_crc(uint32_t crc, uint8_t code)
 {
-    uint32_t crc = tx->crc ^ CRC32C_XOROUT;
-    uint8_t code = tx->code;
-    for (uint8_t i = 0; i < FRAME_CRC_SIZE; i++) { /* the CRC's own bytes are not run through it */
+    for (uint8_t i = 0; i < FRAME_CRC_SIZE; i++) {
         code = tx_cobs(code, (uint8_t)crc);
         crc >>= 8;
     }
+    return code;
+}
+#endif
+
+void frame_tx_end(frame_tx_t *tx)
+{
+    uint8_t code = frame_tx_crc(tx->crc ^ CRC32C_XOROUT, tx->code);
     port_tx_put(0); /* the delimiter, released with the last block */
     port_tx_close(code);
 }

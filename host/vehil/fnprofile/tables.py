@@ -193,11 +193,12 @@ def figures(profile: Profile, files: dict | None = None) -> dict:
 # CRC32C_BYTE, proto/crc32c.h's inline update); the UART served in the frame loops at
 # 2 Mbaud, where they run with interrupts off (firmware/src/uart.h: the loops' lines
 # of the macros that test, serve and switch); the loops of firmware/src/frame_avr.S
-# less both (copying a request's bytes, COBS-encoding a reply into the TX ring).
+# less both (copying a request's bytes, COBS-encoding a reply and its CRC into the TX
+# ring).
 _CRC_MACRO = "CRC32C_BYTE"
 _CRC_HEADER = "firmware/lib/proto/crc32c.h"
 _SERVE_MACROS = ("UART_POLL", "SERVE_STUB", "IF_POLLED", "POLLED_BEGIN", "POLLED_END")
-_FRAME_LOOPS = ("frame_rx_run", "frame_tx_run")
+_FRAME_LOOPS = ("frame_rx_run", "frame_tx_run", "frame_tx_crc")
 EXCHANGE_PARTS = (
     "RX interrupts",
     "TX interrupts",
