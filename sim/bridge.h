@@ -5,6 +5,7 @@
  *   elf_load.c      the firmware ELF
  *   transport.c     the client's pty or TCP socket, and the start-up handshake
  *   uart_pump.c     client <-> UART0 (reader thread, ring, output buffer)
+ *   uart_timing.c   UART0 timed as the chip times it (--uart chip)
  *   pacing.c        sleeping, --realtime, wall-clock waits
  *   bootloader.c    --bootloader mode
  *   vcd_trace.c     --vcd
@@ -62,6 +63,7 @@ struct options {
 	const char *profile_map;	/* the functions' address ranges */
 	const char *profile_window;	/* ranges that open a window; NULL: the run */
 	const char *timing;		/* --timing FILE; NULL: off */
+	int simavr_uart;		/* --uart simavr: simavr's own UART0 timing */
 };
 extern struct options opt;
 void usage(FILE *f);
@@ -143,6 +145,9 @@ void boot_pace(avr_t *avr);
 int setup_boot_chip(avr_t *avr);
 void reset_chip(avr_t *avr);
 void watch_pty_opens(const char *ptyname);
+
+/* uart_timing.c */
+int uart_timing_setup(avr_t *avr, avr_uart_t *uart);
 
 /* vcd_trace.c */
 enum { SIG_TX, SIG_TX_STB, SIG_RX, SIG_RX_STB, SIG_XOFF, SIG_SLEEP, SIG_COUNT };

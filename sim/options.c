@@ -4,6 +4,7 @@
 #include <errno.h>
 #include <getopt.h>
 #include <stdlib.h>
+#include <string.h>
 
 struct options opt = {
 	.transport = DEFAULT_TRANSPORT,
@@ -66,6 +67,9 @@ void usage(FILE *f)
 "  --timing FILE      with --realtime: log each batch of client bytes fed to\n"
 "                     the UART and each write to the client, with the wall\n"
 "                     clock and simulated time (see sim/README.md)\n"
+"  --uart chip|simavr UART0's timing: the ATmega2560's (the default: 10 bits an\n"
+"                     8N1 frame, double-buffered TX) or simavr's own (11 bits,\n"
+"                     UDRE0 back only when the byte is out; see sim/README.md)\n"
 "  -v, --verbose      more simavr logging (repeatable)\n"
 "  -q, --quiet        no simavr logging\n"
 "  -h, --help         this help\n"
@@ -91,7 +95,7 @@ static int parse_u64(const char *s, uint64_t *v)
 void parse_args(int argc, char **argv)
 {
 	enum { O_TCP = 256, O_UNIX, O_PTY, O_MCU, O_FREQ, O_RT, O_LIMIT, O_VCD, O_GDB, O_DELAY, O_BOOT, O_IMAGE,
-		O_PROFILE, O_PROFILE_MAP, O_PROFILE_WINDOW, O_TIMING };
+		O_PROFILE, O_PROFILE_MAP, O_PROFILE_WINDOW, O_TIMING, O_UART };
 	static const struct option lo[] = {
 		{ "tcp", required_argument, NULL, O_TCP },
 		{ "unix", required_argument, NULL, O_UNIX },
@@ -109,6 +113,7 @@ void parse_args(int argc, char **argv)
 		{ "profile-map", required_argument, NULL, O_PROFILE_MAP },
 		{ "profile-window", required_argument, NULL, O_PROFILE_WINDOW },
 		{ "timing", required_argument, NULL, O_TIMING },
+		{ "uart", required_argument, NULL, O_UART },
 		{ "verbose", no_argument, NULL, 'v' },
 		{ "quiet", no_argument, NULL, 'q' },
 		{ "help", no_argument, NULL, 'h' },
@@ -191,6 +196,13 @@ void parse_args(int argc, char **argv)
 			break;
 		case O_TIMING:
 			opt.timing = optarg;
+			break;
+		case O_UART:
+			if (strcmp(optarg, "chip") && strcmp(optarg, "simavr")) {
+				diag("--uart: '%s' is neither 'chip' nor 'simavr'", optarg);
+				exit(EXIT_USAGE);
+			}
+			opt.simavr_uart = !strcmp(optarg, "simavr");
 			break;
 		case 'v':
 			if (opt.log_level < LOG_DEBUG)

@@ -268,6 +268,8 @@ int main(int argc, char **argv)
 	avr_ioctl(avr, AVR_IOCTL_UART_SET_FLAGS('0'), &flags);
 	g_uart = (avr_uart_t *)find_io(avr, "uart", '0');
 	g_wdt = (avr_watchdog_t *)find_io(avr, "watchdog", 0);
+	if (!opt.simavr_uart && uart_timing_setup(avr, g_uart) != 0)
+		return EXIT_SETUP;
 	g_uart_in = avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_INPUT);
 	avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUTPUT),
 		on_uart_output, NULL);

@@ -57,6 +57,13 @@ LOOP_SCENARIO = "stlqf/heavy-rolling-fixed"  # STLQF FIXED, 60 s at 100 Hz
 # A late stretch during which a CPU was given to others this long (steal) is the host's.
 STOLEN_MS = 10
 LATE_STRETCHES_SHOWN = 12
+# UART0 timed as the chip times it, or as simavr 1.6 does (--uart simavr, to compare:
+# sim/README.md, "UART0 timing")
+UART = "chip"
+
+
+def _bridge(**options: Any) -> SimavrOptions:
+    return SimavrOptions(uart=UART, **options)
 
 
 def _set_baud(link: Link, baud: int) -> None:
@@ -72,7 +79,7 @@ def streaming(count: int) -> list[dict[str, Any]]:
     the host keeps the window full and the figure is the board's, as long as the host is
     not late, which lowers it and never raises it."""
     rows = []
-    board = make_board("simavr-realtime", BoardOptions(timeout_s=2.0))
+    board = make_board("simavr-realtime", BoardOptions(timeout_s=2.0), _bridge())
     with board.session() as link:
         for baud in STREAM_BAUDS:
             load = _load()
@@ -96,7 +103,7 @@ def reply_latency(count: int) -> dict[str, dict[str, float]]:
     to start it. `count` exchanges in the board's first 2**24 cycles and as many after."""
     with tempfile.TemporaryDirectory() as tmp:
         vcd = Path(tmp) / "uart.vcd"
-        with open_board("simavr", BoardOptions(), SimavrOptions(vcd=vcd)) as link:
+        with open_board("simavr", BoardOptions(), _bridge(vcd=vcd)) as link:
             run_ping(link, count=count, size=PING_SIZE, window=1)
             while link.request("PING", payload=b"").fields()["timestamp"] < SETTLED_CYCLES:
                 time.sleep(0.05)  # simavr runs free meanwhile
@@ -127,7 +134,7 @@ def _summary(cycles: list[float]) -> dict[str, float]:
 def simavr_speed(seconds: float = 3.0) -> float:
     """Simulated time per wall-clock second of simavr running free, the board busy all
     along (bursts of PINGs at 2 Mbaud): below 1, this host cannot hold it to real time."""
-    with open_board("simavr") as link:
+    with open_board("simavr", BoardOptions(), _bridge()) as link:
         link.set_baud(2_000_000)
         start, board, n = time.perf_counter(), 0.0, 0
         while time.perf_counter() - start < seconds:
@@ -143,13 +150,13 @@ def round_trips(count: int, latency_cycles: float) -> list[dict[str, Any]]:
     baud rate's measured exchanges)."""
     rows = []
     load = _load()
-    board = make_board("simavr-realtime", BoardOptions(timeout_s=2.0))
+    board = make_board("simavr-realtime", BoardOptions(timeout_s=2.0), _bridge())
     with board.session() as link:
         for baud in ROUND_TRIP_BAUDS:
             _set_baud(link, baud)
             run_ping(link, count=50, size=PING_SIZE, window=1)  # settle
             s = run_ping(link, count=count, size=PING_SIZE, window=1)
-            wire_s = s.wire_bytes * profile.SIMAVR_BITS_PER_BYTE / baud  # simavr's bytes
+            wire_s = s.wire_bytes * profile.SIMAVR_BITS_PER_BYTE[UART] / baud
             # The request's receive interrupts and fetch run as its bytes arrive; what
             # the wire does not cover is the last byte to the reply queued.
             bound_s = wire_s + latency_cycles / F_CPU
@@ -203,7 +210,7 @@ def realtime_loop() -> dict[str, Any]:
     load = _load()
     with tempfile.TemporaryDirectory() as tmp:
         log_path = Path(tmp) / "timing.log"
-        board = make_board("simavr-realtime", BoardOptions(), SimavrOptions(timing=log_path))
+        board = make_board("simavr-realtime", BoardOptions(), _bridge(timing=log_path))
         r = runner.run(sc, board, realtime=True, console=Console(quiet=True))
         log = TimingLog.read(log_path)
     rtt = r.rtt_s * 1e3 if r.done else np.zeros(1)
@@ -269,8 +276,10 @@ PARTS = (
 def run(count: int, parts: tuple[str, ...] = PARTS) -> dict[str, Any]:
     figures: dict[str, Any] = {}
     if "board_costs" in parts:
-        with open_board("simavr") as link:
-            figures["board_costs"] = profile.board_costs(link)
+        with open_board("simavr", BoardOptions(), _bridge()) as link:
+            figures["board_costs"] = profile.board_costs(
+                link, bits=profile.SIMAVR_BITS_PER_BYTE[UART]
+            )
     if "reply_latency" in parts or "round_trips" in parts:
         # The round trips' bound needs the board's compute.
         figures["reply_latency_cycles"] = reply_latency(min(count, 300))
@@ -296,7 +305,7 @@ def report(f: dict[str, Any]) -> str:
         lines.append(
             "cycles per streamed PING exchange (bursts sent at once, their bytes arriving "
             "at the line rate; by the board's clock; with the wire: no less than the reply's "
-            "time on simavr's 11-bit bytes):"
+            f"time on the wire's {profile.SIMAVR_BITS_PER_BYTE[UART]}-bit bytes):"
         )
     for c in f.get("board_costs", []):
         lines.append(
@@ -340,7 +349,7 @@ def report(f: dict[str, Any]) -> str:
     if "round_trips" in f:
         lines.append(
             f"stop-and-wait {PING_SIZE}-byte PINGs on simavr-realtime over a Unix-domain socket "
-            f"(host clock; wire at simavr's {profile.SIMAVR_BITS_PER_BYTE} bits a byte):"
+            f"(host clock; wire at {profile.SIMAVR_BITS_PER_BYTE[UART]} bits a byte):"
         )
     for t in f.get("round_trips", []):
         lines.append(
@@ -399,7 +408,15 @@ def main(argv: list[str] | None = None) -> int:
         default=",".join(PARTS),
         help=f"comma-separated parts to run (default: all of {','.join(PARTS)})",
     )
+    ap.add_argument(
+        "--uart",
+        choices=("chip", "simavr"),
+        default="chip",
+        help="UART0's timing on the simavr boards: the ATmega2560's, or simavr's own",
+    )
     args = ap.parse_args(argv)
+    global UART
+    UART = args.uart
     parts = tuple(p.strip() for p in args.only.split(",") if p.strip())
     unknown = [p for p in parts if p not in PARTS]
     if unknown:

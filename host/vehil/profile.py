@@ -5,9 +5,10 @@ Figures are labelled by what they measure:
 - wire: bytes x 10 / baud, the UART's floor at 8N1;
 - host clock: round trips as the host sees them, which include the board process
   (simavr, QEMU) or the USB bridge of a real board.
-simavr times its UART from UBRR but counts 11 bits per 8N1 byte, so its wire times
-read 10 % slow: the sweep measures that ratio and states it. QEMU ignores the
-baud rate altogether. A real Mega adds its 16U2 bridge: up to 4.1 ms per reply.
+The simavr bridge times its UART as the chip does (10 bits an 8N1 byte; simavr's own
+timing, 11, with its --uart simavr: sim/README.md); the sweep measures the wire's
+ratio to the line rate and states it. QEMU ignores the baud rate altogether. A real
+Mega adds its 16U2 bridge: up to 4.1 ms per reply.
 """
 
 from __future__ import annotations
@@ -33,7 +34,9 @@ SIZES = (0, 16, 64, 112)
 WINDOWS = (1, 2, 4, 8, 16, 32)
 F_CPU = 16_000_000
 USB_BRIDGE_S = 4.096e-3  # the 16U2 flushes board->host every 4.096 ms
-SIMAVR_BITS_PER_BYTE = 11  # simavr's UART counts a parity bit in 8N1 (sim/README.md)
+# Bits an 8N1 byte takes on the simavr bridge's wire, by its --uart timing: the chip's, or
+# simavr's own, which counts a parity bit (sim/README.md)
+SIMAVR_BITS_PER_BYTE = {"chip": 10, "simavr": 11}
 
 
 @dataclass(frozen=True)
@@ -115,7 +118,7 @@ BURSTS = 12
 BURST_SIZES = (0, 16, 32, 64)  # at least three requests fit the board's RX buffer
 
 
-def board_cost_point(link: Link, size: int, bursts: int = BURSTS) -> dict[str, Any]:
+def board_cost_point(link: Link, size: int, bursts: int = BURSTS, bits: int = 10) -> dict[str, Any]:
     """Board cycles per exchange of a `size`-byte PING streamed at the link's baud, by the
     board's own clock, whatever the host's pace.
 
@@ -126,9 +129,9 @@ def board_cost_point(link: Link, size: int, bursts: int = BURSTS) -> dict[str, A
     spacing of the PONG timestamps over the burst's first half, while later requests still
     arrive, is the board's cost: receiving, decoding and checking the request, handling
     it, encoding and sending the reply. A stream goes no faster than its replies leave:
-    the exchange takes the board's cost or the reply's time on simavr's wire (11 bits a
-    byte), whichever is longer, and its share of the 10-bit line rate follows from that
-    (simavr's bytes cap it at 10/11). The second half's spacing, every request already
+    the exchange takes the board's cost or the reply's time on the wire (`bits` a byte),
+    whichever is longer, and its share of the 10-bit line rate follows from that
+    (simavr's own 11-bit bytes cap it at 10/11). The second half's spacing, every request
     in the RX ring, is the board's cost without the receiving. Cycle-exact on simavr.
     """
     assert link.info is not None
@@ -156,7 +159,7 @@ def board_cost_point(link: Link, size: int, bursts: int = BURSTS) -> dict[str, A
         1, after["rx_frames"] - before["rx_frames"]
     )
     board = float(np.median(arriving))
-    per_exchange = max(board, max(request, reply) * SIMAVR_BITS_PER_BYTE * F_CPU / baud)
+    per_exchange = max(board, max(request, reply) * bits * F_CPU / baud)
     wire_cycles = max(request, reply) * 10 * F_CPU / baud  # the 10-bit line rate
     return {
         "baud": baud,
@@ -173,13 +176,16 @@ def board_cost_point(link: Link, size: int, bursts: int = BURSTS) -> dict[str, A
 
 
 def board_costs(
-    link: Link, sizes: tuple[int, ...] = BURST_SIZES, bauds: tuple[int, ...] = BURST_BAUDS
+    link: Link,
+    sizes: tuple[int, ...] = BURST_SIZES,
+    bauds: tuple[int, ...] = BURST_BAUDS,
+    bits: int = 10,
 ) -> list[dict[str, Any]]:
     try:
         rows = []
         for baud in bauds:
             link.set_baud(baud)
-            rows += [board_cost_point(link, size) for size in sizes]
+            rows += [board_cost_point(link, size, bits=bits) for size in sizes]
         return rows
     finally:
         link.set_baud(1_000_000)

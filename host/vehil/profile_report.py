@@ -118,7 +118,7 @@ def board_cost_table(rows: list[dict[str, Any]], board: str) -> Table:
     t.caption = (
         "board cycles: PONG timestamps' spacing over bursts of PINGs sent at once, while "
         "later requests still arrive at the line rate (the host never the bottleneck); with "
-        "the wire: no less than the reply's time on simavr's 11-bit bytes; requests already "
+        "the wire: no less than the reply's time on the wire (10 bits a byte); requests already "
         "in: the board's spacing once every request is in the RX ring; line share: of the "
         "10-bit line rate"
     )

@@ -1,11 +1,14 @@
-"""The bit time simavr really gives the UART, at every standard rate SET_BAUD accepts.
+"""UART0's timing on the simavr board against the chip's: the bit time at every standard
+rate SET_BAUD accepts, and a transmitter that sends bytes back to back.
 
 simavr fixes a UART's byte time when UBRR0 is written, from U2X0 as it is then, so an
 init that writes them in the other order runs at half the requested baud on simavr and
-at the right one on the chip. The bridge's VCD trace timestamps every byte written to
-UDR0 in simulated time; inside a reply frame the TX interrupt refills UDR0 as soon as
-it empties, so the spacing of a frame's bytes is simavr's byte time (except where the
-transmitter waits for the next COBS block to be released).
+at the right one on the chip. The bridge times UART0 as the chip does (sim/README.md,
+"UART0 timing"): a 10-bit 8N1 frame, and a double-buffered transmitter. Its VCD trace
+timestamps every byte as it enters the shift register, in simulated time; inside a reply
+frame the TX interrupt refills UDR0 as soon as UDRE0 is set, so a frame's bytes follow
+each other one frame time apart (except where the transmitter waits for the next COBS
+block to be released).
 """
 
 from __future__ import annotations
@@ -39,7 +42,7 @@ STANDARD_BAUDS = (
     1_000_000,
     2_000_000,
 )
-BITS_PER_BYTE = 11  # simavr counts a parity bit in 8N1 (see sim/README.md)
+BITS_PER_BYTE = 10  # 8N1: start, 8 data bits, stop
 PINGS = 3
 PAYLOAD = bytes(range(1, 49))
 PONG_WIRE = len(frame.encode(0x82, 1, bytes(4) + PAYLOAD))  # with its delimiter
@@ -80,3 +83,28 @@ def test_simavr_bit_time_is_the_requested_baud_at_every_accepted_rate(built, tmp
         assert bit_s == pytest.approx(chip_bit_s, rel=0.01), f"{baud} baud"
         assert bit_s * baud == pytest.approx(1.0, abs=0.04), f"{baud} baud"  # SET_BAUD's limit
     assert {115200, 250000, 500000, 1_000_000, 2_000_000} <= set(first_pong)
+
+
+def test_bytes_leave_back_to_back_at_2_mbaud(built, tmp_path) -> None:
+    """A burst of replies at 2 Mbaud: each byte the firmware writes into UDR0 as soon as
+    UDRE0 is set starts the moment the byte before it has left (the shift register takes
+    it from UDR0 then), so the bytes of a reply are one 10-bit frame apart. A transmitter
+    that only sets UDRE0 once its byte is out (simavr's own) adds the TX interrupt's
+    response to every byte. The longer gaps are the firmware's: bytes not yet released."""
+    baud, n = 2_000_000, 16
+    frame_ns = BITS_PER_BYTE * 1e9 / baud
+    late_ns = 5e9 / F_CPU  # the longest instruction: 5 cycles
+    vcd = tmp_path / "uart.vcd"
+    with open_board("simavr", BoardOptions(timeout_s=5.0), SimavrOptions(vcd=vcd)) as link:
+        link.set_baud(baud)
+        first = link.stats()["tx_frames"] + 1  # after the STATS reply
+        with link.corked():  # the burst in one write: the replies queue up on the board
+            pings = (("PING", {"payload": bytes([1 + i]) * 16}) for i in range(n))
+            assert len(list(link.pipeline(pings, window=n))) == n
+    replies = frames(uart_bytes(vcd)[0])[first : first + n]
+    gaps = [b.t_ns - a.t_ns for f in replies for a, b in zip(f, f[1:], strict=False)]
+    # a byte's timestamp is the first instruction boundary at or after its start
+    back_to_back = [g for g in gaps if abs(g - frame_ns) <= late_ns]
+    print(f"\n{len(back_to_back)} of {len(gaps)} bytes one frame after the one before")
+    assert min(gaps) >= frame_ns - late_ns  # never two bytes on the line at once
+    assert len(back_to_back) >= 0.8 * len(gaps)

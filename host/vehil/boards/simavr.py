@@ -39,6 +39,9 @@ class SimavrOptions:
     # stack (~11 us less a round trip; transports/protocol_unix.py).
     unix: bool = False
     timing: Path | None = None  # with realtime: the bridge's timing log (sim/README.md)
+    # UART0 timed as the ATmega2560 does ("chip") or as simavr 1.6 does ("simavr": 11 bits
+    # a frame, no TX double buffer), for comparison (sim/README.md, "UART0 timing")
+    uart: str = "chip"
 
     def bridge_options(self) -> list[str]:
         args = ["--realtime"] if self.realtime else []
@@ -48,6 +51,8 @@ class SimavrOptions:
             args += ["--vcd", str(self.vcd)]
         if self.timing:
             args += ["--timing", str(self.timing)]
+        if self.uart != "chip":
+            args += ["--uart", self.uart]
         if self.gdb_port is not None:
             args += ["--gdb", str(self.gdb_port)]
         return args + list(self.profile)

@@ -1,0 +1,137 @@
+/* UART0 timed as the ATmega2560 times it (--uart chip, the default), where simavr 1.6
+ * times it otherwise (--uart simavr):
+ *  - a frame is start + data bits + parity (if UPM0 enables it) + stop bits, from
+ *    UCSR0B/C as they are; simavr always counts a parity bit (11 bits for 8N1);
+ *  - the transmitter is double-buffered: a byte written to UDR0 moves into the shift
+ *    register at once if it is idle, else when the frame before it ends, and UDRE0 is
+ *    set again as it moves; TXC0 is set when a frame ends with UDR0 empty.  simavr
+ *    holds UDRE0 off for a whole frame after each write and sets TXC0 after every byte.
+ * What it does not model is in sim/README.md ("UART0 timing"). */
+#include "bridge.h"
+
+#include <avr_uart.h>
+#include <sim_gdb.h>
+#include <sim_interrupts.h>
+#include <sim_irq.h>
+#include <sim_regbit.h>
+
+/* the accessors of simavr's pending interrupt FIFO (sim_interrupts.h declares it) */
+DEFINE_FIFO(avr_int_vector_p, avr_int_pending);
+
+#define UPM01 5		/* UCSR0C: parity on (UPM00 says even or odd) */
+
+static avr_uart_t *u;
+static int shifting;		/* the shift register holds a frame */
+static int udr_full;		/* a byte waits in UDR0 for the shift register */
+static uint8_t udr;
+static void (*core_reset)(avr_t *avr);
+
+/* The cycles a frame takes with UBRR0, U2X0 and the frame format as they are. */
+static avr_cycle_count_t frame_cycles(avr_t *avr)
+{
+	static const uint8_t data_bits[8] = { 5, 6, 7, 8, 8, 8, 8, 9 };	/* 4-6 reserved */
+	uint32_t ubrr = avr_regbit_get(avr, u->ubrrl) | (uint32_t)avr_regbit_get(avr, u->ubrrh) << 8;
+	uint32_t bit = (ubrr + 1) * (avr_regbit_get(avr, u->u2x) ? 8u : 16u);
+	unsigned bits = 1u + data_bits[avr_regbit_get(avr, u->ucsz) | avr_regbit_get(avr, u->ucsz2) << 2]
+		+ ((avr->data[u->r_ucsrc] >> UPM01) & 1u) + 1u + avr_regbit_get(avr, u->usbs);
+	return (avr_cycle_count_t)bit * bits;
+}
+
+/* UDR0 is full: UDRE0 clear, and its interrupt not due.  simavr's avr_clear_interrupt()
+ * only marks the vector not pending and leaves it queued in the pending FIFO: it is
+ * taken out, so nothing can run it. */
+static void hold_udre(avr_t *avr)
+{
+	avr_int_pending_t *q = &avr->interrupts.pending;
+	for (int n = avr_int_pending_get_read_size(q); n > 0; n--) {
+		avr_int_vector_p v = avr_int_pending_read(q);
+		if (v != &u->udrc)
+			avr_int_pending_write(q, v);
+	}
+	avr_clear_interrupt(avr, &u->udrc);
+	if (avr->interrupt_state > 0 && !avr_has_pending_interrupts(avr))
+		avr->interrupt_state = 0;
+	avr_regbit_clear(avr, u->udrc.raised);
+}
+
+/* After every write to a register the frame time depends on (simavr's own handler has
+ * just set its 11-bit figure when it was UBRR0): RX paces the input FIFO by it.  And
+ * simavr's handlers for UCSR0A/B know nothing of UDR0 being full: turning UDRIE0 on
+ * raised the UDRE interrupt then, and the interrupt's byte was lost (measured). */
+static void on_format_write(avr_irq_t *irq, uint32_t value, void *param)
+{
+	(void)irq; (void)value; (void)param;
+	u->cycles_per_byte = frame_cycles(g_avr);
+	if (udr_full)
+		hold_udre(g_avr);
+}
+
+/* The byte enters the shift register: it goes out on the line now. */
+static void shift_out(uint8_t v)
+{
+	shifting = 1;
+	avr_raise_irq(u->io.irq + UART_IRQ_OUTPUT, v);
+}
+
+static avr_cycle_count_t frame_end(avr_t *avr, avr_cycle_count_t when, void *param)
+{
+	(void)param;
+	if (!udr_full) {
+		shifting = 0;
+		avr_raise_interrupt(avr, &u->txc);
+		return 0;
+	}
+	udr_full = 0;
+	shift_out(udr);
+	avr_raise_interrupt(avr, &u->udrc);
+	return when + frame_cycles(avr);	/* back to back: from the last frame's end */
+}
+
+/* Replaces simavr's UDR0 write handler. */
+static void on_udr_write(avr_t *avr, avr_io_addr_t addr, uint8_t v, void *param)
+{
+	(void)param;
+	if (avr->gdb)
+		avr_gdb_handle_watchpoints(avr, addr, AVR_GDB_WATCH_WRITE);
+	if (!avr_regbit_get(avr, u->txen) || udr_full)
+		return;		/* the chip ignores a write with TXEN0 off or UDRE0 clear */
+	if (shifting) {
+		udr = v;
+		udr_full = 1;
+		hold_udre(avr);
+		return;
+	}
+	u->cycles_per_byte = frame_cycles(avr);
+	shift_out(v);
+	avr_cycle_timer_register(avr, u->cycles_per_byte, frame_end, NULL);
+	avr_raise_interrupt(avr, &u->udrc);	/* still empty: the interrupt is due again */
+}
+
+static void uart_timing_reset(avr_t *avr)
+{
+	if (core_reset)
+		core_reset(avr);
+	avr_cycle_timer_cancel(avr, frame_end, NULL);
+	shifting = udr_full = 0;
+}
+
+int uart_timing_setup(avr_t *avr, avr_uart_t *uart)
+{
+	u = uart;
+	avr_io_addr_t udr_io = AVR_DATA_TO_IO(u->r_udr);
+	if (avr->io[udr_io].w.param != u) {
+		diag("UART0's UDR write handler is not simavr's own: cannot time it as the chip");
+		return -1;
+	}
+	avr->io[udr_io].w.c = on_udr_write;
+	core_reset = avr->reset;
+	avr->reset = uart_timing_reset;
+	const avr_io_addr_t format[] = { u->ubrrl.reg, u->ubrrh.reg, u->r_ucsra, u->r_ucsrb, u->r_ucsrc };
+	for (size_t i = 0; i < sizeof format / sizeof format[0]; i++) {
+		avr_irq_t *irq = avr_iomem_getirq(avr, format[i], NULL, AVR_IOMEM_IRQ_ALL);
+		irq->flags &= (uint8_t)~IRQ_FLAG_FILTERED;	/* a write of the same value too */
+		avr_irq_register_notify(irq, on_format_write, NULL);
+	}
+	u->cycles_per_byte = frame_cycles(avr);
+	return 0;
+}
