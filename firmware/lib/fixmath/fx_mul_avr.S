@@ -174,6 +174,7 @@
         ASR_BYTES B, 7, R
         RESULT_FROM B
         .else
+        .set    CHECK_TO, 7     ; the result's sign fill in bytes CHECK_FROM..CHECK_TO
         .if     R == 0
         .set    W, B
         .set    CHECK_FROM, B+4
@@ -182,19 +183,23 @@
         .set    W, B
         .set    CHECK_FROM, B+4
         .else                   ; five bits or more: a left shift by 8 - R is shorter
+        .set    h, B+5          ; it pushes byte B+5's top bits out, so the bytes from B+5
+        .rept   8-h             ; are P's sign fill before it, and byte B+5 the result's
+        cp      18+h, E         ; after it (as E, when byte B+5 is E)
+        brne    9f
+        .set    h, h+1
+        .endr
         LSL_BYTES B, B+5, 8-R
         .set    W, B+1
         .set    CHECK_FROM, B+5
+        .set    CHECK_TO, B+5
         .endif
         SIGN_FILL S, 18+W+3
         .set    h, CHECK_FROM
-        .rept   8-CHECK_FROM
+        .rept   CHECK_TO+1-CHECK_FROM
         CHECK_BYTE h
         .set    h, h+1
         .endr
-        .if     CHECK_FROM == 8
-        CHECK_BYTE 8
-        .endif
         RESULT_FROM W
         ret
 9:      lsl     E               ; saturated: INT32_MAX or INT32_MIN by the product's sign
