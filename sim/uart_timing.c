@@ -38,8 +38,9 @@ static avr_cycle_count_t frame_cycles(avr_t *avr)
 }
 
 /* UDR0 is full: UDRE0 clear, and its interrupt not due.  simavr's avr_clear_interrupt()
- * only marks the vector not pending and leaves it queued in the pending FIFO: it is
- * taken out, so nothing can run it. */
+ * only marks the vector not pending and leaves it queued in the pending FIFO (64
+ * entries), where each byte sent with interrupts off (the frame loops at 2 Mbaud) would
+ * leave one more: it is taken out. */
 static void hold_udre(avr_t *avr)
 {
 	avr_int_pending_t *q = &avr->interrupts.pending;
