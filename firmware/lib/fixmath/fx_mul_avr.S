@@ -110,13 +110,24 @@
         .endr
 .endm
 
-; Saturate unless byte h (<= 8) of P equals the result's sign fill S.
-.macro CHECK_BYTE h
-        .if     \h == 8
-        cp      E, S
+; Saturate unless bytes from..to (to <= 8, byte 8 being E) of P all equal ref: one
+; compare, then compares with carry, which keep Z only while every byte matched.
+.macro CHECK_BYTES from, to, ref
+        .set    h0, (\from)
+        .set    h, h0
+        .rept   (\to)+1-h0
+        .if     h == 8
+        .set    cb, E
         .else
-        cp      18+\h, S
+        .set    cb, 18+h
         .endif
+        .if     h == h0
+        cp      cb, \ref
+        .else
+        cpc     cb, \ref
+        .endif
+        .set    h, h+1
+        .endr
         brne    9f
 .endm
 
@@ -183,23 +194,16 @@
         .set    W, B
         .set    CHECK_FROM, B+4
         .else                   ; five bits or more: a left shift by 8 - R is shorter
-        .set    h, B+5          ; it pushes byte B+5's top bits out, so the bytes from B+5
-        .rept   8-h             ; are P's sign fill before it, and byte B+5 the result's
-        cp      18+h, E         ; after it (as E, when byte B+5 is E)
-        brne    9f
-        .set    h, h+1
-        .endr
+        .if     B+5 <= 7        ; it pushes byte B+5's top bits out, so the bytes from B+5
+        CHECK_BYTES B+5, 7, E   ; are P's sign fill before it, and byte B+5 the result's
+        .endif                  ; after it (as E, when byte B+5 is E)
         LSL_BYTES B, B+5, 8-R
         .set    W, B+1
         .set    CHECK_FROM, B+5
         .set    CHECK_TO, B+5
         .endif
         SIGN_FILL S, 18+W+3
-        .set    h, CHECK_FROM
-        .rept   CHECK_TO+1-CHECK_FROM
-        CHECK_BYTE h
-        .set    h, h+1
-        .endr
+        CHECK_BYTES CHECK_FROM, CHECK_TO, S
         RESULT_FROM W
         ret
 9:      lsl     E               ; saturated: INT32_MAX or INT32_MIN by the product's sign
