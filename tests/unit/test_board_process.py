@@ -4,6 +4,7 @@ named."""
 from __future__ import annotations
 
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -11,14 +12,14 @@ import time
 
 import pytest
 
-from vehil.boards.process import BoardProcess
+from vehil.boards.process import BoardProcess, _dies_with_parent
 from vehil.errors import BoardStartError
 
 # A host that starts a board program (here `sleep`) and a thread beside it, as vehil's
 # frame maker is, prints the program's pid, and waits to be killed.
 HOST = """
 import threading, time
-from vehil.boards.process import BoardProcess
+from vehil.boards.process import BoardProcess, _dies_with_parent
 threading.Thread(target=time.sleep, args=(60,), daemon=True).start()
 board = BoardProcess(["sleep", "60"], "sleep")
 print(board.proc.pid, flush=True)
@@ -34,11 +35,24 @@ def _alive(pid: int) -> bool:
         return False
 
 
+def _comm(pid: int) -> str:
+    try:
+        with open(f"/proc/{pid}/comm") as f:
+            return f.read().strip()
+    except FileNotFoundError:
+        return ""
+
+
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="parent-death signal is Linux's")
 def test_a_host_killed_outright_takes_its_board_program_with_it() -> None:
     host = subprocess.Popen([sys.executable, "-c", HOST], stdout=subprocess.PIPE, text=True)
     assert host.stdout is not None
     pid = int(host.stdout.readline())
+    # setpriv sets the signal, then execs the program: wait for the exec, as the host does
+    # (it waits for the board's ready line), so the signal is set when the host dies
+    deadline = time.monotonic() + 10
+    while _comm(pid) != "sleep" and time.monotonic() < deadline:
+        time.sleep(0.01)
     assert _alive(pid)
     host.send_signal(signal.SIGKILL)
     host.wait(timeout=10)
@@ -57,7 +71,7 @@ def test_a_host_killed_outright_takes_its_board_program_with_it() -> None:
 GRPC_HOST = """
 import grpc
 from concurrent import futures
-from vehil.boards.process import BoardProcess
+from vehil.boards.process import BoardProcess, _dies_with_parent
 server = grpc.server(futures.ThreadPoolExecutor(max_workers=2))
 port = server.add_insecure_port("127.0.0.1:0")
 server.start()
@@ -82,3 +96,15 @@ def test_a_missing_board_program_is_named() -> None:
         BoardStartError, match="cannot start simavr: /no/such/bridge: no such program"
     ):
         BoardProcess(["/no/such/bridge"], "simavr")
+
+
+@pytest.mark.skipif(shutil.which("setpriv") is None, reason="setpriv sets the signal")
+def test_a_board_program_whose_host_died_before_the_signal_was_set_never_starts(tmp_path) -> None:  # noqa: ANN001
+    """The guard setpriv runs checks that its parent is still the host that spawned it."""
+    started = tmp_path / "started"
+    argv = _dies_with_parent(["touch", str(started)])
+    host = argv.index(str(os.getpid()))
+    assert subprocess.run(argv).returncode == 0 and started.exists()
+    started.unlink()
+    argv[host] = "1"  # as seen by a child whose host has gone: another parent
+    assert subprocess.run(argv).returncode != 0 and not started.exists()

@@ -16,6 +16,10 @@ import serial
 from vehil.boards.base import Board, BoardOptions
 from vehil.errors import BoardStartError
 
+# Run by setpriv once the signal is set: a host that died before that (its child now
+# has another parent) gets no signal, so the program is not started at all.
+_IF_PARENT_LIVES = '[ "$PPID" = "$1" ] && shift && exec "$@"'
+
 
 def _dies_with_parent(argv: list[str]) -> list[str]:
     """The command, made to get SIGKILL if the host dies without stopping it (SIGKILL, a
@@ -25,7 +29,10 @@ def _dies_with_parent(argv: list[str]) -> list[str]:
     closing the inherited descriptors made it abort the board before exec). Where there
     is no setpriv (not Linux), the host's normal stop() is all there is."""
     setpriv = shutil.which("setpriv")
-    return [setpriv, "--pdeathsig", "KILL", "--", *argv] if setpriv else argv
+    if setpriv is None:
+        return argv
+    guard = ["/bin/sh", "-c", _IF_PARENT_LIVES, "sh", str(os.getpid())]
+    return [setpriv, "--pdeathsig", "KILL", "--", *guard, *argv]
 
 
 class BoardProcess:
