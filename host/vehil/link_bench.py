@@ -57,13 +57,6 @@ LOOP_SCENARIO = "stlqf/heavy-rolling-fixed"  # STLQF FIXED, 60 s at 100 Hz
 # A late stretch during which a CPU was given to others this long (steal) is the host's.
 STOLEN_MS = 10
 LATE_STRETCHES_SHOWN = 12
-# UART0 timed as the chip times it, or as simavr 1.6 does (--uart simavr, to compare:
-# sim/README.md, "UART0 timing")
-UART = "chip"
-
-
-def _bridge(**options: Any) -> SimavrOptions:
-    return SimavrOptions(uart=UART, **options)
 
 
 def _set_baud(link: Link, baud: int) -> None:
@@ -71,7 +64,7 @@ def _set_baud(link: Link, baud: int) -> None:
         link.set_baud(baud)
 
 
-def streaming(count: int) -> list[dict[str, Any]]:
+def streaming(count: int, bridge: SimavrOptions) -> list[dict[str, Any]]:
     """Windowed 16-byte PINGs on simavr-realtime: the board's share of the 10-bit line rate,
     by its own clock. simavr running free does a 2 Mbaud exchange in ~60 us of host time,
     which a Python host cannot keep up with: the board waited for requests there, and the
@@ -79,7 +72,7 @@ def streaming(count: int) -> list[dict[str, Any]]:
     the host keeps the window full and the figure is the board's, as long as the host is
     not late, which lowers it and never raises it."""
     rows = []
-    board = make_board("simavr-realtime", BoardOptions(timeout_s=2.0), _bridge())
+    board = make_board("simavr-realtime", BoardOptions(timeout_s=2.0), bridge)
     with board.session() as link:
         for baud in STREAM_BAUDS:
             load = _load()
@@ -96,14 +89,14 @@ def streaming(count: int) -> list[dict[str, Any]]:
 SETTLED_CYCLES = 1 << 24
 
 
-def reply_latency(count: int) -> dict[str, dict[str, float]]:
+def reply_latency(count: int, bridge: SimavrOptions) -> dict[str, dict[str, float]]:
     """Board cycles from reading a 16-byte PING's delimiter out of UDR0 to writing its PONG's
     first byte into UDR0 (stop-and-wait, 1 Mbaud), from the bridge's VCD trace: the
     request's last byte to its reply queued, plus the few cycles the TX interrupt takes
     to start it. `count` exchanges in the board's first 2**24 cycles and as many after."""
     with tempfile.TemporaryDirectory() as tmp:
         vcd = Path(tmp) / "uart.vcd"
-        with open_board("simavr", BoardOptions(), _bridge(vcd=vcd)) as link:
+        with open_board("simavr", BoardOptions(), dataclasses.replace(bridge, vcd=vcd)) as link:
             run_ping(link, count=count, size=PING_SIZE, window=1)
             while link.request("PING", payload=b"").fields()["timestamp"] < SETTLED_CYCLES:
                 time.sleep(0.05)  # simavr runs free meanwhile
@@ -131,10 +124,10 @@ def _summary(cycles: list[float]) -> dict[str, float]:
     }
 
 
-def simavr_speed(seconds: float = 3.0) -> float:
+def simavr_speed(bridge: SimavrOptions, seconds: float = 3.0) -> float:
     """Simulated time per wall-clock second of simavr running free, the board busy all
     along (bursts of PINGs at 2 Mbaud): below 1, this host cannot hold it to real time."""
-    with open_board("simavr", BoardOptions(), _bridge()) as link:
+    with open_board("simavr", BoardOptions(), bridge) as link:
         link.set_baud(2_000_000)
         start, board, n = time.perf_counter(), 0.0, 0
         while time.perf_counter() - start < seconds:
@@ -144,19 +137,19 @@ def simavr_speed(seconds: float = 3.0) -> float:
         return board / (time.perf_counter() - start)
 
 
-def round_trips(count: int, latency_cycles: float) -> list[dict[str, Any]]:
+def round_trips(count: int, latency_cycles: float, bridge: SimavrOptions) -> list[dict[str, Any]]:
     """Stop-and-wait 16-byte PINGs on simavr-realtime against wire time + board compute
     (`latency_cycles`: a board's past its first 2**24 cycles, as this one is once at each
     baud rate's measured exchanges)."""
     rows = []
     load = _load()
-    board = make_board("simavr-realtime", BoardOptions(timeout_s=2.0), _bridge())
+    board = make_board("simavr-realtime", BoardOptions(timeout_s=2.0), bridge)
     with board.session() as link:
         for baud in ROUND_TRIP_BAUDS:
             _set_baud(link, baud)
             run_ping(link, count=50, size=PING_SIZE, window=1)  # settle
             s = run_ping(link, count=count, size=PING_SIZE, window=1)
-            wire_s = s.wire_bytes * profile.SIMAVR_BITS_PER_BYTE[UART] / baud
+            wire_s = s.wire_bytes * profile.SIMAVR_BITS_PER_BYTE[bridge.uart] / baud
             # The request's receive interrupts and fetch run as its bytes arrive; what
             # the wire does not cover is the last byte to the reply queued.
             bound_s = wire_s + latency_cycles / F_CPU
@@ -202,7 +195,7 @@ def _load() -> float:
     return os.getloadavg()[0]
 
 
-def realtime_loop() -> dict[str, Any]:
+def realtime_loop(bridge: SimavrOptions) -> dict[str, Any]:
     """STLQF FIXED stop-and-wait at 100 Hz in real time through the 1 Mbaud link on
     simavr-realtime, the whole 60 s drive: late samples (a RESULT back after the next
     sample was due), round trips and the step's cycles."""
@@ -210,7 +203,9 @@ def realtime_loop() -> dict[str, Any]:
     load = _load()
     with tempfile.TemporaryDirectory() as tmp:
         log_path = Path(tmp) / "timing.log"
-        board = make_board("simavr-realtime", BoardOptions(), _bridge(timing=log_path))
+        board = make_board(
+            "simavr-realtime", BoardOptions(), dataclasses.replace(bridge, timing=log_path)
+        )
         r = runner.run(sc, board, realtime=True, console=Console(quiet=True))
         log = TimingLog.read(log_path)
     rtt = r.rtt_s * 1e3 if r.done else np.zeros(1)
@@ -273,29 +268,32 @@ PARTS = (
 )
 
 
-def run(count: int, parts: tuple[str, ...] = PARTS) -> dict[str, Any]:
-    figures: dict[str, Any] = {}
+def run(count: int, parts: tuple[str, ...] = PARTS, uart: str = "chip") -> dict[str, Any]:
+    """The figures of `parts`, on simavr boards whose UART0 is timed by `uart`: "chip" (the
+    ATmega2560's) or "simavr" (simavr 1.6's own, to compare: sim/README.md)."""
+    bridge = SimavrOptions(uart=uart)
+    figures: dict[str, Any] = {"uart": uart}
     if "board_costs" in parts:
-        with open_board("simavr", BoardOptions(), _bridge()) as link:
+        with open_board("simavr", BoardOptions(), bridge) as link:
             figures["board_costs"] = profile.board_costs(
-                link, bits=profile.SIMAVR_BITS_PER_BYTE[UART]
+                link, bits=profile.SIMAVR_BITS_PER_BYTE[uart]
             )
     if "reply_latency" in parts or "round_trips" in parts:
         # The round trips' bound needs the board's compute.
-        figures["reply_latency_cycles"] = reply_latency(min(count, 300))
+        figures["reply_latency_cycles"] = reply_latency(min(count, 300), bridge)
     if "simavr_speed" in parts:
-        figures["simavr_speed"] = simavr_speed()
+        figures["simavr_speed"] = simavr_speed(bridge)
     if "streaming" in parts or "round_trips" in parts or "loop" in parts:
         figures["priority"] = _raise_priority()
     if "streaming" in parts:
-        figures["streaming"] = streaming(count)
+        figures["streaming"] = streaming(count, bridge)
     if "round_trips" in parts:
         latency = figures["reply_latency_cycles"]["settled"]["median"]
-        figures["round_trips"] = round_trips(count, latency)
+        figures["round_trips"] = round_trips(count, latency, bridge)
     if "steps" in parts:
         figures["step_cycles"] = step_cycles()
     if "loop" in parts:
-        figures["realtime_loop"] = realtime_loop()
+        figures["realtime_loop"] = realtime_loop(bridge)
     return figures
 
 
@@ -305,7 +303,7 @@ def report(f: dict[str, Any]) -> str:
         lines.append(
             "cycles per streamed PING exchange (bursts sent at once, their bytes arriving "
             "at the line rate; by the board's clock; with the wire: no less than the reply's "
-            f"time on the wire's {profile.SIMAVR_BITS_PER_BYTE[UART]}-bit bytes):"
+            f"time on the wire's {profile.SIMAVR_BITS_PER_BYTE[f['uart']]}-bit bytes):"
         )
     for c in f.get("board_costs", []):
         lines.append(
@@ -349,7 +347,7 @@ def report(f: dict[str, Any]) -> str:
     if "round_trips" in f:
         lines.append(
             f"stop-and-wait {PING_SIZE}-byte PINGs on simavr-realtime over a Unix-domain socket "
-            f"(host clock; wire at {profile.SIMAVR_BITS_PER_BYTE[UART]} bits a byte):"
+            f"(host clock; wire at {profile.SIMAVR_BITS_PER_BYTE[f['uart']]} bits a byte):"
         )
     for t in f.get("round_trips", []):
         lines.append(
@@ -410,18 +408,16 @@ def main(argv: list[str] | None = None) -> int:
     )
     ap.add_argument(
         "--uart",
-        choices=("chip", "simavr"),
+        choices=tuple(profile.SIMAVR_BITS_PER_BYTE),
         default="chip",
         help="UART0's timing on the simavr boards: the ATmega2560's, or simavr's own",
     )
     args = ap.parse_args(argv)
-    global UART
-    UART = args.uart
     parts = tuple(p.strip() for p in args.only.split(",") if p.strip())
     unknown = [p for p in parts if p not in PARTS]
     if unknown:
         ap.error(f"unknown part(s) {', '.join(unknown)}: choose from {', '.join(PARTS)}")
-    figures = run(args.count, parts)
+    figures = run(args.count, parts, args.uart)
     print(json.dumps(figures, indent=1) if args.json else report(figures))
     return 0
 
