@@ -13,8 +13,8 @@
  * are ~40 cycles apart, well within the two byte times (160 cycles at 2 Mbaud) the
  * receiver holds bytes for; between the loops, and below 2 Mbaud, the interrupts
  * serve, so the idle wait, a step and every other handler run as before. (Polling at
- * 1 Mbaud cost simavr's wire ~8 %: its UDR0 takes the next byte only once the last
- * one is out, so a service point's latency adds to every byte's time.) */
+ * 1 Mbaud was measured only on simavr's own UART timing, where it cost ~8 %: that UDR0
+ * is not double-buffered, so a service point's latency added to every byte's time.) */
 #ifndef VEHIL_UART_H
 #define VEHIL_UART_H
 
