@@ -108,26 +108,24 @@ static int32_t biquad_q(const biquad_q_t *b, int32_t x, int32_t x1, int32_t x2, 
 
 #if defined(__AVR__)
 /* accel_cond_avr.S reads the structs at these offsets */
-#define AT(type, field, at) typedef char at_##field[offsetof(type, field) == (at) ? 1 : -1]
-AT(accel_chan_q_t, x1, 0);
-AT(accel_chan_q_t, x2, 4);
-AT(accel_chan_q_t, l1, 8);
-AT(accel_chan_q_t, l2, 12);
-AT(accel_chan_q_t, h1, 16);
-AT(accel_chan_q_t, h2, 20);
-AT(accel_chan_q_t, dh, 24);
-AT(accel_chan_q_t, v, 28);
-AT(accel_chan_q_t, x, 32);
-AT(accel_cond_q_t, hp, 0);
-AT(accel_cond_q_t, lp, 10);
-AT(accel_cond_q_t, beta, 25);
-AT(accel_cond_q_t, gamma, 30);
-AT(hp_delta_q_t, c12, 5);
-AT(biquad_q_t, p1, 5);
-AT(biquad_q_t, p2, 10);
-AT(fx_xfactor_t, entry, 3);
-AT(fx_factor_t, sh, 2);
-#undef AT
+FX_ASM_OFFSET(accel_chan_q_t, x1, 0);
+FX_ASM_OFFSET(accel_chan_q_t, x2, 4);
+FX_ASM_OFFSET(accel_chan_q_t, l1, 8);
+FX_ASM_OFFSET(accel_chan_q_t, l2, 12);
+FX_ASM_OFFSET(accel_chan_q_t, h1, 16);
+FX_ASM_OFFSET(accel_chan_q_t, h2, 20);
+FX_ASM_OFFSET(accel_chan_q_t, dh, 24);
+FX_ASM_OFFSET(accel_chan_q_t, v, 28);
+FX_ASM_OFFSET(accel_chan_q_t, x, 32);
+FX_ASM_OFFSET(accel_cond_q_t, hp, 0);
+FX_ASM_OFFSET(accel_cond_q_t, lp, 10);
+FX_ASM_OFFSET(accel_cond_q_t, beta, 25);
+FX_ASM_OFFSET(accel_cond_q_t, gamma, 30);
+FX_ASM_OFFSET(hp_delta_q_t, c12, 5);
+FX_ASM_OFFSET(biquad_q_t, p1, 5);
+FX_ASM_OFFSET(biquad_q_t, p2, 10);
+FX_ASM_OFFSET(fx_xfactor_t, entry, 3);
+FX_ASM_OFFSET(fx_factor_t, sh, 2);
 #endif
 
 int32_t accel_cond_step_q_c(const accel_cond_q_t *c, accel_chan_q_t *ch, int32_t a,

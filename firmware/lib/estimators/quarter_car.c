@@ -86,11 +86,9 @@ int32_t qcar_strut_over_kus_q_c(const qcar_q_t *m, int32_t dx, int32_t dv, uint8
 
 #if defined(__AVR__)
 /* quarter_car_avr.S reads qcar_q_t at these offsets */
-#define AT(name, ok) typedef char qcar_at_##name[(ok) ? 1 : -1]
-AT(s1, offsetof(qcar_q_t, s1) == 22);
-AT(s2, offsetof(qcar_q_t, s2) == 26);
-AT(s3, offsetof(qcar_q_t, s3) == 30);
-AT(d1, offsetof(qcar_q_t, d1) == 34);
-AT(d2, offsetof(qcar_q_t, d2) == 38);
-#undef AT
+FX_ASM_OFFSET(qcar_q_t, s1, 22);
+FX_ASM_OFFSET(qcar_q_t, s2, 26);
+FX_ASM_OFFSET(qcar_q_t, s3, 30);
+FX_ASM_OFFSET(qcar_q_t, d1, 34);
+FX_ASM_OFFSET(qcar_q_t, d2, 38);
 #endif

@@ -328,10 +328,8 @@ void stlqf_align_q_c(const stlqf_row_q_t *rows, uint8_t head, int8_t *peak,
 
 #if defined(__AVR__)
 /* stlqf_align_avr.S reads the rows at these offsets */
-typedef char stlqf_row_layout[sizeof(stlqf_row_q_t) == 23u && offsetof(stlqf_row_q_t, k) == 20u &&
-                                      STLQF_ROWS == 9u && STLQF_COLS == 5u
-                                  ? 1
-                                  : -1];
+FX_ASM_LAYOUT(stlqf_row, sizeof(stlqf_row_q_t) == 23u && offsetof(stlqf_row_q_t, k) == 20u &&
+                              STLQF_ROWS == 9u && STLQF_COLS == 5u);
 #endif
 
 /* The top half of v: by byte moves on the AVR, little-endian (avr-gcc calls a library

@@ -23,6 +23,11 @@ extern "C" { /* C linkage for C++ wrappers of vendored libraries */
  * is folded where it is used (GCC would otherwise keep one out-of-line copy). */
 #define FX_INLINE static inline __attribute__((always_inline))
 
+/* At file scope beside an assembly kernel's C twin: the build fails where the C layout no
+ * longer matches the byte offsets the assembly reads (`ok`: offsetof and sizeof checks). */
+#define FX_ASM_LAYOUT(name, ok) typedef char fx_asm_layout_##name[(ok) ? 1 : -1]
+#define FX_ASM_OFFSET(type, field, at) FX_ASM_LAYOUT(type##_##field, offsetof(type, field) == (at))
+
 /* x >> n and x << n for a run-time n < 32, whole bytes first (the AVR shifts an int32 one
  * bit at a time, in a loop). */
 FX_INLINE uint32_t fx_shr32(uint32_t x, uint8_t n)
