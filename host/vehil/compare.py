@@ -301,7 +301,8 @@ class Metrics:
             b, r = board[:, j], reference[:n, j]
             o.ref.add(b - r, ks)
             if o.tol is not None:
-                over = (np.abs(b - r) > o.tol.abs + o.tol.rel * np.abs(r)) & (t >= o.tol.from_s)
+                checked = (t >= o.tol.from_s) & (ks >= o.tol.from_samples)
+                over = (np.abs(b - r) > o.tol.abs + o.tol.rel * np.abs(r)) & checked
                 o.outside += int(over.sum())
             if o.truth is not None:
                 true = truth[name][:n][scored]

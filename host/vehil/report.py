@@ -91,6 +91,8 @@ def _stack(figures: Figures) -> str:
 
 def _tolerance(tol: Tolerance, ref: str) -> str:
     since = f" from {tol.from_s:g} s" if tol.from_s else ""
+    if tol.from_samples:
+        since += f"{' and' if since else ' from'} sample {tol.from_samples}"
     return f"{tol.abs:g} + {tol.rel:g}·{ref}{since}"
 
 

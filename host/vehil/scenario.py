@@ -45,11 +45,14 @@ class ScenarioError(VehilError):
 @dataclass(frozen=True)
 class Tolerance:
     """Board vs float64 reference: |board - ref| <= abs + rel * |ref| at every sample from
-    time `from_s` on (before it an output may be unobservable, and its digits noise)."""
+    time `from_s` and sample `from_samples` on (before it an output may be unobservable, and
+    its digits noise). `from_samples` is for a start-up counted in samples, whatever the
+    sample time: a window that fills, a prior corrected step by step."""
 
     abs: float = 0.0
     rel: float = 0.0
     from_s: float = 0.0
+    from_samples: int = 0
     bit_exact: bool = False  # FIXED: the board's bits equal the native build's
     truth_rms: float | None = None  # RMS error vs truth must stay below this
 
@@ -156,6 +159,13 @@ class _Checker:
         if not (math.isfinite(value) and lo <= value <= hi):
             raise self.fail(key, f"{value!r} is outside [{lo:g}, {hi:g}]")
         return float(value)
+
+    def count(self, key: str) -> int:
+        """A whole number of samples, 0 when not given."""
+        value = self.table.get(key, 0)
+        if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+            raise self.fail(key, f"must be a whole number of samples (0 or more), got {value!r}")
+        return value
 
     def text(self, key: str, default: str | None = None, choices: tuple[str, ...] = ()) -> str:
         value = self.table.get(key, default)
@@ -406,7 +416,7 @@ def parse(data: dict[str, Any], where: str, path: Path | None = None) -> Scenari
         if name not in outputs:
             raise tol_t.fail(name, f"no output of that name; {spec.name} has {', '.join(outputs)}")
         t = tol_t.sub(name)
-        t.only("abs", "rel", "from_s", "bit_exact", "truth_rms")
+        t.only("abs", "rel", "from_s", "from_samples", "bit_exact", "truth_rms")
         bit_exact = t.table.get("bit_exact", False)
         if not isinstance(bit_exact, bool):
             raise t.fail("bit_exact", f"must be true or false, got {bit_exact!r}")
@@ -414,6 +424,7 @@ def parse(data: dict[str, Any], where: str, path: Path | None = None) -> Scenari
             abs=t.number("abs", 0.0, lo=0.0),
             rel=t.number("rel", 0.0, lo=0.0),
             from_s=t.number("from_s", 0.0, lo=0.0),
+            from_samples=t.count("from_samples"),
             bit_exact=bit_exact,
             truth_rms=t.number("truth_rms", lo=0.0) if "truth_rms" in t.table else None,
         )

@@ -137,7 +137,7 @@ def budget(
         diff = np.abs(perturbed(prepared, u, sc.seed + 1000 + i) - prepared.reference)
         for j, name in enumerate(names):
             tol = sc.tolerances.get(name)
-            k0 = int(round((tol.from_s if tol else 0.0) / sc.sample_time))
+            k0 = max(round(tol.from_s / sc.sample_time), tol.from_samples) if tol else 0
             reach[j] = max(reach[j], float(np.nanmax(diff[k0:, j])) if len(diff) > k0 else 0.0)
     return {
         name: Budget(

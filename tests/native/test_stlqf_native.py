@@ -25,6 +25,7 @@ from vehil.estimators import stlqf
         # Unlike the shipped drives (the first window's step from 1000 kg included):
         ("heavy-rolling-fixed", "m", 0.2),  # 1650 kg, rolling road
         ("van-rolling-fixed", "m", 0.5),  # 2500 kg, 1.2 m²: 0.37 kg in the first window
+        ("light-50hz-fixed", "grade", 0.15),  # 1200 kg at 50 Hz: 0.092° as the window fills
         ("rls-heavy-fixed", "m", 0.05),  # unlike the shipped drives: 1650 kg from 1000 kg
         ("rls-heavy-rolling-fixed", "m", 0.5),
         ("rls-truck-fixed", "cda", 2.0),

@@ -55,6 +55,10 @@ def test_a_good_scenario_loads_with_defaults_filled_in() -> None:
             lambda d: d["tolerance"]["y"].update(bit_exact="yes"),
             r"bit_exact: must be true or false",
         ),
+        (
+            lambda d: d["tolerance"]["y"].update(from_samples=2.5),
+            r"tolerance.y.from_samples: must be a whole number of samples",
+        ),
         (lambda d: d.update(log={"path": "a.csv"}), r"give exactly one of \[plant\] and \[log\]"),
         (lambda d: d.update(extra={}), r"extra: unknown key; allowed here: scenario, plant"),
         (lambda d: d["scenario"].update(closed_loop="yes"), r"closed_loop: must be true or false"),

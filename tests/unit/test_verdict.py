@@ -189,3 +189,13 @@ def test_a_drive_built_to_raise_a_flag_fails_when_it_does_not() -> None:
     assert str(compare.evaluate(s).verdict) == "FAIL: expected DIVERGED, never raised"
     s.status[40:] = SCHEMA.status["DIVERGED"]
     assert compare.evaluate(s).verdict.word == "PASS"
+
+
+def test_a_tolerance_from_a_sample_checks_from_that_sample_and_says_so(tmp_path) -> None:  # noqa: ANN001
+    """A start-up counted in samples (a window filling) is skipped by `from_samples`, named in
+    the report; one sample fewer and the start-up fails the check."""
+    board = np.where(np.arange(40) < 10, 2.0, 1.0)
+    for start, word in ((10, "PASS"), (9, "FAIL")):
+        s = series(board, np.ones(40), {"y": Tolerance(abs=0.1, from_samples=start)})
+        md, _, figures = written(s, tmp_path)
+        assert f"from sample {start}" in row(md, "y") and figures.verdict.word == word
