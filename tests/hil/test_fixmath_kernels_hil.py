@@ -86,7 +86,7 @@ def _accelerations(seed: int) -> list[bytes]:
         {"active": 0},  # the shipped passive drive's configuration
         {"T": 0.001, "eps": 0.003, "design": 1, "road_from": 1, "active": 0},  # the retune
         {"T": 2e-4, "eps": 2.0, "f_hp": 0.02, "f_post": 0.0, "active": 0},  # tiny factors
-        {"T": 0.05, "eps": 0.5, "f_hp": 10.0, "f_lp": 9.0, "f_post": 5.0, "variant": 1},
+        {"T": 0.05, "eps": 0.5, "f_hp": 4.4, "f_lp": 9.0, "f_post": 5.0, "variant": 1},  # c12 0.99
         {"active": 1},  # variant A with the controller: the assembly's whole step
     ],
 )

@@ -21,8 +21,8 @@ SCENARIOS = DATA_ROOT / "scenarios" / "eso"
     ("name", "x_limit"),
     [
         ("s1-sine-eso", 1e-5),  # float32
-        ("s1-sine-eso-fixed", 6e-5),  # fixed point: the high-pass in Q21, for hard bumps
-        ("hard-bumps-eso-fixed", 1e-4),  # a_us to -391 m/s²: no saturation
+        ("s1-sine-eso-fixed", 2e-5),  # fixed point: the high-pass's step in Q37
+        ("hard-bumps-eso-fixed", 2e-5),  # a_us to -391 m/s²: no saturation
         ("s3-random-eso-b", 5e-5),
         ("s4-random-kfui", 5e-5),
     ],
@@ -66,6 +66,8 @@ def test_with_the_held_damper_float32_follows_float64_on_noisy_accelerometers(ru
         # in range, but the paper's β3 = 1/ε³ (T β3 = 8e4) does not fit FIXED's Q16
         (eso.SPEC, "FIXED", {"eps": 0.005}, "eps"),
         (eso.SPEC, "FIXED", {"k_us": 1.0}, "k_us"),
+        # in range, but a corner at f_hp T = 0.5 gives c12 = 4, past the high-pass's Q32
+        (eso.SPEC, "FIXED", {"f_hp": 10.0, "T": 0.05}, "f_hp"),
         (eso.SPEC, "F32", {"horizon": 2.0}, "horizon"),
         (kfui.SPEC, "F32", {"r_x": 0.0}, "r_x"),
     ],

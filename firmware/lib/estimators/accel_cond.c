@@ -55,9 +55,14 @@ void accel_cond_design_f32(accel_cond_f32_t *c, const uint8_t *params, uint8_t f
     }
 }
 
-void accel_cond_q_from_f32(accel_cond_q_t *q, const accel_cond_f32_t *c, uint8_t *status)
+uint8_t accel_cond_q_from_f32(accel_cond_q_t *q, const accel_cond_f32_t *c, uint8_t *status)
 {
-    q->hp = (hp_delta_q_t){fx_xfactor(c->hp.c2, 0, status), fx_xfactor(c->hp.c12, 0, status)};
+    if (c->hp.c12 >= 1.0f) {
+        return 1u; /* f_hp T past ~0.22: c12 does not fit its Q32 */
+    }
+    /* c2 < 0.83 at any corner; both below 1, as 24 and 32 fraction bits (docs/estimators/eso.md) */
+    q->hp = (hp_delta_q_t){(uint32_t)(c->hp.c2 * 16777216.0f + 0.5f),
+                           (uint32_t)(c->hp.c12 * 4294967296.0f + 0.5f)};
     /* the poles as their distances from a1 = -2, a2 = 1 (a double pole at z = 1), which
      * keep 16 bits where the poles near 1 need them; b0 from the poles as kept, so that the
      * DC gain stays 1 */
@@ -70,6 +75,7 @@ void accel_cond_q_from_f32(accel_cond_q_t *q, const accel_cond_f32_t *c, uint8_t
     q->lp = (biquad_q_t){fx_xfactor(b0 * c->hp.g * beta, 26 - (ACCEL_QH - 2), status), p1, p2};
     q->beta = fx_xfactor(beta, 2, status);
     q->gamma = fx_xfactor(c->one_m_alpha, 0, status);
+    return 0u;
 }
 
 static float biquad_f32(const biquad_f32_t *b, float x, float x1, float x2, float y1, float y2)
@@ -117,34 +123,64 @@ FX_ASM_OFFSET(accel_chan_q_t, h2, 20);
 FX_ASM_OFFSET(accel_chan_q_t, dh, 24);
 FX_ASM_OFFSET(accel_chan_q_t, v, 28);
 FX_ASM_OFFSET(accel_chan_q_t, x, 32);
+FX_ASM_OFFSET(accel_chan_q_t, h1_lo, 36);
+FX_ASM_OFFSET(accel_chan_q_t, dh_lo, 38);
 FX_ASM_OFFSET(accel_cond_q_t, hp, 0);
-FX_ASM_OFFSET(accel_cond_q_t, lp, 10);
-FX_ASM_OFFSET(accel_cond_q_t, beta, 25);
-FX_ASM_OFFSET(accel_cond_q_t, gamma, 30);
-FX_ASM_OFFSET(hp_delta_q_t, c12, 5);
+FX_ASM_OFFSET(accel_cond_q_t, lp, 8);
+FX_ASM_OFFSET(accel_cond_q_t, beta, 23);
+FX_ASM_OFFSET(accel_cond_q_t, gamma, 28);
+FX_ASM_OFFSET(hp_delta_q_t, c12, 4);
 FX_ASM_OFFSET(biquad_q_t, p1, 5);
 FX_ASM_OFFSET(biquad_q_t, p2, 10);
 FX_ASM_OFFSET(fx_xfactor_t, entry, 3);
 FX_ASM_OFFSET(fx_factor_t, sh, 2);
 #endif
 
+/* The high-pass's Q37 values (ACCEL_QH with 16 bits below) are 48-bit: a saturating add
+ * clamps to ±2^47 and flags, as fx_add does at 2^31. */
+#define Q37_MAX (((int64_t)1 << 47) - 1)
+
+static int64_t add_q37(int64_t a, int64_t b, uint8_t *status)
+{
+    int64_t r = a + b;
+    if (r > Q37_MAX || r < -Q37_MAX - 1) {
+        *status |= STATUS_SATURATED;
+        return r > 0 ? Q37_MAX : -Q37_MAX - 1;
+    }
+    return r;
+}
+
+/* -a c 2^-drop, rounded to Q37 with ties away from zero: a (ACCEL_QH) times c (Q24 or Q32,
+ * below 1) leaves 2^-drop of Q37's unit. |a c| < 2^63, and the result's magnitude < 2^47. */
+static int64_t neg_mul_q37(int32_t a, uint32_t c, uint8_t drop)
+{
+    uint64_t m = (uint64_t)(a < 0 ? 0u - (uint32_t)a : (uint32_t)a) * c;
+    int64_t r = (int64_t)((m + ((uint64_t)1 << (drop - 1u))) >> drop);
+    return a < 0 ? r : -r;
+}
+
 int32_t accel_cond_step_q_c(const accel_cond_q_t *c, accel_chan_q_t *ch, int32_t a,
                             uint8_t *status)
 {
     const hp_delta_q_t *hp = &c->hp;
     int32_t d2 = fx_sub(fx_sub(a, ch->x1, status), fx_sub(ch->x1, ch->x2, status), status);
-    int32_t dh = fx_sub(ch->dh, fx_mul_f(ch->dh, hp->c2.f, status), status);
-    dh = fx_add(dh, fx_rescale(d2, 16, ACCEL_QH, status), status);
-    ch->dh = fx_sub(dh, fx_mul_f(ch->h1, hp->c12.f, status), status);
-    int32_t h = fx_add(ch->h1, ch->dh, status);
-    int32_t l = biquad_q(&c->lp, h, ch->h1, ch->h2, ch->l1, ch->l2, status);
+    /* dh <- dh - dh c2 + d2 - h1 c12 and h = h1 + dh in Q37; c2's operand is dh rounded to
+     * ACCEL_QH, c12's h1 as it is (their roundings enter c2 and c12 times smaller) */
+    int64_t dh = (int64_t)ch->dh * 65536 + ch->dh_lo;
+    dh = add_q37(dh, neg_mul_q37(fx_add(ch->dh, ch->dh_lo >> 15, status), hp->c2, 8), status);
+    dh = add_q37(dh, (int64_t)fx_rescale(d2, 16, ACCEL_QH, status) * 65536, status);
+    dh = add_q37(dh, neg_mul_q37(ch->h1, hp->c12, 16), status);
+    int64_t h = add_q37((int64_t)ch->h1 * 65536 + ch->h1_lo, dh, status);
+    ch->dh = (int32_t)(dh >> 16), ch->dh_lo = (uint16_t)dh;
+    int32_t h21 = (int32_t)(h >> 16); /* ACCEL_QH, its bits below dropped (floor) */
+    int32_t l = biquad_q(&c->lp, h21, ch->h1, ch->h2, ch->l1, ch->l2, status);
     int32_t v = fx_add(ch->v, fx_add(l, ch->l1, status), status);
     v = fx_sub(v, fx_mul_f(ch->v, c->gamma.f, status), status);
     int32_t x = fx_add(ch->x, fx_mul_f(fx_add(v, ch->v, status), c->beta.f, status), status);
     ch->x = fx_sub(x, fx_mul_f(ch->x, c->gamma.f, status), status);
     ch->x2 = ch->x1, ch->x1 = a;
     ch->l2 = ch->l1, ch->l1 = l;
-    ch->h2 = ch->h1, ch->h1 = h;
+    ch->h2 = ch->h1, ch->h1 = h21, ch->h1_lo = (uint16_t)h;
     ch->v = v;
     return ch->x;
 }

@@ -11,10 +11,13 @@
  * c2 = 1 - a2 = 2√2 K g, c12 = 1 + a1 + a2 = 4 K² g, g = 1/(1 + √2 K + K²).
  * Fixed point: raw data as it comes, Q16; high-passed and its step ACCEL_QH (Q21,
  * ±1,024 m/s²: over four times the -235 m/s² an unsprung mass reaches on hard bumps,
- * docs/estimators/eso.md); low-passed times the trapezoid's β = α T/2, the velocity's
- * half-increment, Q26 (m/s); velocity Q26, displacement Q28. Every coefficient
- * is a factor (fx_factor_t: 16 significant bits at a shift chosen at CONFIG) that takes
- * its operand's Q to its result's. */
+ * docs/estimators/eso.md), each carried with 16 bits below it (Q37, 48 bits): the
+ * high-pass's poles sit within √2 K of z = 1, where a rounding to Q21 each step came out
+ * of it 1/c12 times larger (4,000× at 5 ms, 10^5× at 1 ms); its two products are 32 × 24
+ * and 32 × 32 products by c2 in Q24 and c12 in Q32, rounded to Q37. Low-passed times the
+ * trapezoid's β = α T/2, the velocity's half-increment, Q26 (m/s); velocity Q26,
+ * displacement Q28. Every other coefficient is a factor (fx_factor_t: 16 significant bits
+ * at a shift chosen at CONFIG) that takes its operand's Q to its result's. */
 #ifndef VEHIL_ESTIMATORS_ACCEL_COND_H
 #define VEHIL_ESTIMATORS_ACCEL_COND_H
 
@@ -41,8 +44,9 @@ typedef struct {
 } hp_delta_f32_t;
 
 typedef struct {
-    fx_xfactor_t c2, c12; /* Q21 -> Q21; g is the low-pass's (docs/estimators/eso.md) */
-} hp_delta_q_t;
+    uint32_t c2;  /* Q24 (below 1 at any corner), taking Q21 to Q37 by a 32 × 24 product */
+    uint32_t c12; /* Q32 (CONFIG refuses f_hp T past 0.22, where c12 reaches 1): Q21 to Q37 */
+} hp_delta_q_t; /* g is the low-pass's (docs/estimators/eso.md) */
 
 typedef struct {
     hp_delta_f32_t hp;
@@ -71,6 +75,7 @@ typedef struct {
     int32_t h1, h2, dh;     /* ACCEL_QH: the high-pass's output over g, its history, its step */
     int32_t v;              /* Q26 */
     int32_t x;              /* Q28 */
+    uint16_t h1_lo, dh_lo;  /* h1's and dh's 16 bits below ACCEL_QH: with them, Q37 */
 } accel_chan_q_t;
 
 extern const ROM param_range_t accel_cond_ranges[ACCEL_COND_N_PARAMS];
@@ -80,7 +85,8 @@ biquad_f32_t butter2_lp(float fc, float T);
 
 void accel_cond_design_f32(accel_cond_f32_t *c, const uint8_t *params, uint8_t first,
                            uint8_t mode, float T);
-void accel_cond_q_from_f32(accel_cond_q_t *q, const accel_cond_f32_t *c, uint8_t *status);
+/* 0, or 1 + the index of the parameter whose fixed-point form does not fit (f_hp: c12 >= 1). */
+uint8_t accel_cond_q_from_f32(accel_cond_q_t *q, const accel_cond_f32_t *c, uint8_t *status);
 
 /* One sample a (m/s²) in; the displacement out (ch->l1 is the filtered acceleration). */
 float accel_cond_step_f32(const accel_cond_f32_t *c, accel_chan_f32_t *ch, float a);

@@ -1,8 +1,9 @@
 ; One channel of accel_cond's fixed-point step (accel_cond.h) for the AVR build, inside the
 ; ESO's assembly front (eso_avr.S): the same operations in the same order as the C twin
-; accel_cond_step_q_c (accel_cond.c), so the same bits: eight products by factors
-; (fx_mul_f_avr's, inline: fixmath/fx_step_avr.inc's MULX) and the saturating adds,
-; subtracts and the rescale between them. In C the flattened ESO step kept almost nothing
+; accel_cond_step_q_c (accel_cond.c), so the same bits: the high-pass's 48-bit (Q37) step with
+; its 32 × 24 and 32 × 32 products, six products by factors (fx_mul_f_avr's, inline:
+; fixmath/fx_step_avr.inc's MULX) and the saturating adds, subtracts and the rescale between
+; them. In C the flattened ESO step kept almost nothing
 ; in registers across the kernel's calls: each add reloaded its operands and each product
 ; moved its arguments (~1,650 cycles a channel, ~1,000 of them moves).
 ;
@@ -22,13 +23,15 @@
 #define CH_DH 24
 #define CH_V 28
 #define CH_X 32
-#define C_C2 0
-#define C_C12 5
-#define C_B0 10
-#define C_P1 15
-#define C_P2 20
-#define C_BETA 25
-#define C_GAMMA 30
+#define CH_H1_LO 36
+#define CH_DH_LO 38
+#define C_C2 0                  /* hp_delta_q_t: uint32 c2 (Q24), c12 (Q32) */
+#define C_C12 4
+#define C_B0 8
+#define C_P1 13
+#define C_P2 18
+#define C_BETA 23
+#define C_GAMMA 28
 
 #include "fixmath/fx_step_avr.inc"
 
@@ -38,6 +41,62 @@
         ldd     r27, Y+\off+1
         ldd     r30, Y+\off+2
         ldd     r31, Y+\off+3
+.endm
+
+; a product's column sum: r1:r0 into lo, hi, the carry into c (z is 0)
+.macro COL lo, hi, c, z
+        add     \lo, r0
+        adc     \hi, r1
+        adc     \c, \z
+.endm
+
+; the four bytes from a0 (r16-r31), as unsigned, their magnitude; the sign into T
+.macro ABS4 a0
+        bst     \a0+3, 7
+        brtc    1f
+        com     \a0+3
+        com     \a0+2
+        com     \a0+1
+        neg     \a0
+        sbci    \a0+1, 0xff
+        sbci    \a0+2, 0xff
+        sbci    \a0+3, 0xff
+1:
+.endm
+
+; D (the six bytes from d0) -= P (the six from p0 up, p given one by one) when T is clear,
+; += P when T is set: the product's sign; saturated at ±2^47 (the Q37 values' bound), counted
+.macro SUB6T d0, p0, p1, p2, p3, p4, p5
+        brts    1f
+        sub     \d0, \p0
+        sbc     \d0+1, \p1
+        sbc     \d0+2, \p2
+        sbc     \d0+3, \p3
+        sbc     \d0+4, \p4
+        sbc     \d0+5, \p5
+        rjmp    2f
+1:      add     \d0, \p0
+        adc     \d0+1, \p1
+        adc     \d0+2, \p2
+        adc     \d0+3, \p3
+        adc     \d0+4, \p4
+        adc     \d0+5, \p5
+2:      SAT6C   \d0
+.endm
+; BOUND over six bytes from d0 (even): on overflow, the sign fill with its top bit flipped
+.macro SAT6C d0
+        brvc    1f
+        inc     r13
+        lsl     \d0+5
+        sbc     \d0, \d0
+        mov     \d0+1, \d0
+        movw    \d0+2, \d0
+        movw    \d0+4, \d0
+        com     \d0+5
+        bst     \d0+5, 7
+        mov     \d0+5, \d0
+        bld     \d0+5, 7
+1:
 .endm
 
         .section .text.accel_cond_chan_avr, "ax", @progbits
@@ -83,24 +142,145 @@ accel_cond_chan_avr:
         or      r5, r0
         clr     r1
 3:
-        ; dh = ((dh - dh c2) + S) - h1 c12
+        ; dh = ((dh - dh_r c2) + S) - h1 c12 in Q37 (48 bits), dh_r = dh rounded to Q21
         LDY     22, CH_DH
-        MOV4    8, 22           ; dh kept
-        MULX    14, C_C2, 6
-        MOV4    18, 8
-        SUB_AB  SATC
-        ADD_AR  SATC, 2
-        MOV4    2, 18
+        ldd     r26, Y+CH_DH_LO+1
+        lsl     r26             ; the top bit below Q21: + 1/2
+        adc     r22, r1
+        adc     r23, r1
+        adc     r24, r1
+        adc     r25, r1
+        SATC    22, 23, 24, 25
+        ABS4    22              ; a = |dh_r|, its sign in T
+        movw    r30, r14
+        ldd     r18, Z+C_C2
+        ldd     r19, Z+C_C2+1
+        ldd     r20, Z+C_C2+2
+        clr     r26             ; P (r11:r6) = a c2 2^-8, rounded: P0's top bit into P1
+        clr     r7
+        clr     r8
+        clr     r9
+        clr     r10
+        clr     r11
+        mul     r22, r18
+        mov     r6, r1
+        lsl     r0
+        adc     r6, r26
+        mul     r23, r18
+        COL     r6, r7, r8, r26
+        mul     r22, r19
+        COL     r6, r7, r8, r26
+        mul     r24, r18
+        COL     r7, r8, r9, r26
+        mul     r23, r19
+        COL     r7, r8, r9, r26
+        mul     r22, r20
+        COL     r7, r8, r9, r26
+        mul     r25, r18
+        COL     r8, r9, r10, r26
+        mul     r24, r19
+        COL     r8, r9, r10, r26
+        mul     r23, r20
+        COL     r8, r9, r10, r26
+        mul     r25, r19
+        COL     r9, r10, r11, r26
+        mul     r24, r20
+        COL     r9, r10, r11, r26
+        mul     r25, r20
+        add     r10, r0
+        adc     r11, r1         ; a c2 < 2^55: no carry out
+        clr     r1
+        ldd     r18, Y+CH_DH_LO ; D (r23:r18) = dh in Q37
+        ldd     r19, Y+CH_DH_LO+1
+        LDY     20, CH_DH
+        SUB6T   18, r6, r7, r8, r9, r10, r11
+        add     r20, r2         ; + S 2^16
+        adc     r21, r3
+        adc     r22, r4
+        adc     r23, r5
+        SAT6C   18
+        movw    r6, r18         ; D to r11:r6
+        movw    r8, r20
+        movw    r10, r22
         LDY     22, CH_H1
-        MOV4    8, 22           ; h1 kept
-        MULX    14, C_C12, 6
-        MOV4    18, 2
-        SUB_AB  SATC
-        STY     CH_DH, 18
-        ; h = h1 + dh; the low-pass's sum (h >> 2) + (h1 >> 1) + (h2 >> 2), exact in int32;
+        ABS4    22              ; a = |h1|, its sign in T
+        movw    r30, r14
+        ldd     r18, Z+C_C12
+        ldd     r19, Z+C_C12+1
+        ldd     r20, Z+C_C12+2
+        ldd     r21, Z+C_C12+3
+        clr     r30             ; P1..P7 (r2-r5, r26, r27, r31) = a c12 2^-8
+        clr     r3
+        clr     r4
+        clr     r5
+        clr     r26
+        clr     r27
+        clr     r31
+        mul     r22, r18
+        mov     r2, r1
+        mul     r23, r18
+        COL     r2, r3, r4, r30
+        mul     r22, r19
+        COL     r2, r3, r4, r30
+        mul     r24, r18
+        COL     r3, r4, r5, r30
+        mul     r23, r19
+        COL     r3, r4, r5, r30
+        mul     r22, r20
+        COL     r3, r4, r5, r30
+        mul     r25, r18
+        COL     r4, r5, r26, r30
+        mul     r24, r19
+        COL     r4, r5, r26, r30
+        mul     r23, r20
+        COL     r4, r5, r26, r30
+        mul     r22, r21
+        COL     r4, r5, r26, r30
+        mul     r25, r19
+        COL     r5, r26, r27, r30
+        mul     r24, r20
+        COL     r5, r26, r27, r30
+        mul     r23, r21
+        COL     r5, r26, r27, r30
+        mul     r25, r20
+        COL     r26, r27, r31, r30
+        mul     r24, r21
+        COL     r26, r27, r31, r30
+        mul     r25, r21
+        add     r27, r0
+        adc     r31, r1         ; a c12 < 2^63: no carry out
+        clr     r1
+        lsl     r2              ; rounded to Q37: P1's top bit up
+        adc     r3, r30
+        adc     r4, r30
+        adc     r5, r30
+        adc     r26, r30
+        adc     r27, r30
+        adc     r31, r30
+        SUB6T   6, r3, r4, r5, r26, r27, r31
+        std     Y+CH_DH_LO, r6
+        std     Y+CH_DH_LO+1, r7
+        STY     CH_DH, 8
+        ; h = h1 + dh in Q37: A (r21:r18) = h's Q21 bits, its 16 below into h1_lo; B = h1
+        ldd     r18, Y+CH_H1_LO
+        ldd     r19, Y+CH_H1_LO+1
+        add     r6, r18
+        adc     r7, r19
+        LDY     22, CH_H1       ; B = h1 (LDY and MOV4 keep the carry)
+        MOV4    18, 22
+        adc     r18, r8
+        adc     r19, r9
+        adc     r20, r10
+        adc     r21, r11
+        brvc    1f
+        inc     r13
+        BOUND   18, 19, 20, 21
+        mov     r6, r18         ; and the bits below: the bound's fill
+        mov     r7, r18
+1:      std     Y+CH_H1_LO, r6
+        std     Y+CH_H1_LO+1, r7
+        ; the low-pass's sum (h >> 2) + (h1 >> 1) + (h2 >> 2), exact in int32;
         ; h2 <- h1, h1 <- h
-        MOV4    22, 8           ; B = h1
-        ADD_AB  SATC                  ; A = h
         LDT     CH_H2           ; T = h2
         STY     CH_H2, 22
         STY     CH_H1, 18

@@ -76,18 +76,18 @@ void eso_front_q_c(eso_q_t *s, const uint8_t *in, uint8_t *status)
 #if defined(__AVR__)
 #define eso_front_q(s, in, status) eso_front_q_avr(s, in, status, NULL, 0)
 /* eso_avr.S reads eso_q_t at these offsets */
-FX_ASM_LAYOUT(eso_model, offsetof(eso_q_t, ecu.model) == 35);
+FX_ASM_LAYOUT(eso_model, offsetof(eso_q_t, ecu.model) == 33);
 FX_ASM_LAYOUT(eso_r_m, offsetof(qcar_q_t, r_m_us) == 16 && offsetof(qcar_q_t, r_m_s) == 19);
-FX_ASM_LAYOUT(eso_ctrl, offsetof(eso_q_t, ecu.ctrl) == 77 && offsetof(susp_ctrl_q_t, active) == 25);
-FX_ASM_LAYOUT(eso_ch0, offsetof(eso_q_t, ecu.ch[0]) == 103);
-FX_ASM_LAYOUT(eso_ch1, offsetof(eso_q_t, ecu.ch[1]) == 103 + 36);
-FX_ASM_LAYOUT(eso_u, offsetof(eso_q_t, ecu.u) == 175);
+FX_ASM_LAYOUT(eso_ctrl, offsetof(eso_q_t, ecu.ctrl) == 75 && offsetof(susp_ctrl_q_t, active) == 25);
+FX_ASM_LAYOUT(eso_ch0, offsetof(eso_q_t, ecu.ch[0]) == 101);
+FX_ASM_LAYOUT(eso_ch1, offsetof(eso_q_t, ecu.ch[1]) == 101 + 40);
+FX_ASM_LAYOUT(eso_u, offsetof(eso_q_t, ecu.u) == 181);
 FX_ASM_LAYOUT(eso_cond, offsetof(eso_q_t, ecu.cond) == 0);
-FX_ASM_LAYOUT(eso_k, offsetof(eso_q_t, k) == 179 && sizeof(fx_xfactor_t) == 5);
-FX_ASM_LAYOUT(eso_z, offsetof(eso_q_t, z) == 199);
-FX_ASM_LAYOUT(eso_acc, offsetof(eso_q_t, acc) == 199 + 24);
-FX_ASM_LAYOUT(eso_fnl, offsetof(eso_q_t, fnl) == 199 + 32);
-FX_ASM_LAYOUT(eso_model_in, offsetof(eso_q_t, model_in) == 199 + 36);
+FX_ASM_LAYOUT(eso_k, offsetof(eso_q_t, k) == 185 && sizeof(fx_xfactor_t) == 5);
+FX_ASM_LAYOUT(eso_z, offsetof(eso_q_t, z) == 205);
+FX_ASM_LAYOUT(eso_acc, offsetof(eso_q_t, acc) == 205 + 24);
+FX_ASM_LAYOUT(eso_fnl, offsetof(eso_q_t, fnl) == 205 + 32);
+FX_ASM_LAYOUT(eso_model_in, offsetof(eso_q_t, model_in) == 205 + 36);
 #else
 #define eso_front_q eso_front_q_c
 #endif

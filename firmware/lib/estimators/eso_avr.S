@@ -16,16 +16,16 @@
 
 #include "fixmath/fx_step_avr.inc"
 
-#define S_MODEL 35              /* eso_q_t's offsets (eso.c checks them) */
+#define S_MODEL 33              /* eso_q_t's offsets (eso.c checks them) */
 #define M_R_M_US 16             /* qcar_q_t's m_us/k_us and m_s/k_us (fx_factor_t) */
 #define M_R_M_S 19
-#define S_CTRL 77
+#define S_CTRL 75
 #define CTRL_ACTIVE 25
-#define S_U 175
-#define S_CH0 103
-#define CH_SIZE 36
-#define S_K 179
-#define S_Z 199
+#define S_U 181
+#define S_CH0 101
+#define CH_SIZE 40
+#define S_K 185
+#define S_Z 205
 #define Z_ACC 24                /* acc[2] right after z[6] */
 #define Z_FNL 32
 #define Z_MODEL_IN 36           /* model_in after acc and fnl */

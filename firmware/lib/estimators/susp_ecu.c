@@ -47,9 +47,12 @@ void susp_ecu_configure_f32(susp_ecu_f32_t *e, const uint8_t *params, uint8_t fi
 uint8_t susp_ecu_q_from_f32(susp_ecu_q_t *q, const susp_ecu_f32_t *e)
 {
     uint8_t status = 0; /* the ranges keep the conditioning's and the model's factors below 128 */
-    accel_cond_q_from_f32(&q->cond, &e->cond, &status);
+    uint8_t bad = accel_cond_q_from_f32(&q->cond, &e->cond, &status);
+    if (bad != 0) {
+        return bad; /* the conditioning's parameters come first in the tail */
+    }
     qcar_q_from_f32(&q->model, &e->model, &status);
-    uint8_t bad = susp_ctrl_q_from_f32(&q->ctrl, &e->ctrl);
+    bad = susp_ctrl_q_from_f32(&q->ctrl, &e->ctrl);
     susp_ecu_reset_q(q);
     return bad != 0 ? (uint8_t)(ACCEL_COND_N_PARAMS + QCAR_N_PARAMS + bad) : 0u;
 }
