@@ -70,6 +70,17 @@ def test_rls_recovers_constant_parameters_on_a_flat_road() -> None:
     assert abs(out[-1, 2]) < 0.01
 
 
+def test_rls_learns_nothing_from_a_sample_no_vehicle_makes() -> None:
+    """Past |v̇| 16 m/s², |z| 65.5 kN or v 82 m/s (FIXED's bounds) the estimate is held and
+    CLAMPED raised; a 4 t vehicle at 1.6 g is inside them."""
+    rls = stlqf.Rls(stlqf.RLS.param_values({}))
+    before = rls.step(np.array([10.0, 1.0, 1500.0]))
+    for u in ([10.0, 17.0, 1500.0], [10.0, 1.0, -70_000.0], [90.0, 1.0, 1500.0]):
+        assert np.array_equal(rls.step(np.array(u)), before) and rls.flags & stlqf.CLAMPED
+    assert not np.array_equal(rls.step(np.array([10.0, -15.9, -63_600.0])), before)
+    assert not rls.flags & stlqf.CLAMPED
+
+
 def test_the_plant_satisfies_the_regression_it_feeds() -> None:
     """Eq. 24 holds sample by sample once the car moves (σ_N only on z)."""
     trace = plants.get("longitudinal").run({}, 30.0, 0.01, 2)

@@ -96,6 +96,12 @@ uint8_t longit_inputs(longit_t *l, const uint8_t *in, float *psi, float *z)
     return 0;
 }
 
+uint8_t longit_past_bounds(const uint8_t *in)
+{
+    float v = fabsf(get_f32(in)), v_dot = fabsf(get_f32(in + 4)), z = fabsf(get_f32(in + 8));
+    return v > LONGIT_V_MAX || v_dot > LONGIT_VDOT_MAX || z > LONGIT_Z_MAX ? STATUS_CLAMPED : 0u;
+}
+
 static int32_t clamp(int32_t x, int32_t bound, uint8_t *status)
 {
     if (x > bound || x < -bound) {

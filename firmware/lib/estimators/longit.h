@@ -41,10 +41,15 @@ typedef struct {
 } longit_q_t;
 
 /* FIXED's input bounds, so every product of the fixed-point steps fits: |v| < 82 m/s
- * (½ρv² < 2^13 in Q18), |v̇| < 16 m/s², |z| < 32 kN. */
+ * (½ρv² < 2^13 in Q18), |v̇| < 16 m/s², |z| < 65.5 kN: a 4 t vehicle (θ's range) at that
+ * v̇. z's bound is below 2^30 in Q14 so that the difference of two stays in int32 (STLQF's
+ * error filter); Q13 would double the z rounding that C_dA_f reads at crawling speed. */
 #define LONGIT_V_MAX_Q24 ((int32_t)82 << 24)
 #define LONGIT_VDOT_MAX_Q24 ((int32_t)16 << 24)
-#define LONGIT_Z_MAX_Q14 ((int32_t)32768 << 14)
+#define LONGIT_Z_MAX_Q14 (((int32_t)1 << 30) - 1)
+#define LONGIT_V_MAX 82.0f
+#define LONGIT_VDOT_MAX 16.0f
+#define LONGIT_Z_MAX 65536.0f
 
 /* 0 if the estimator's own n_own parameters and then the shared ones are in range,
  * else 1 + the index of the first bad one. FIXED takes no prefilter. */
@@ -88,6 +93,10 @@ void longit_reset(longit_t *l);
 /* ψ and z from a SAMPLE's v, v̇, z, prefiltered; STATUS_NOT_FINITE (and nothing read)
  * if one is not finite. */
 uint8_t longit_inputs(longit_t *l, const uint8_t *in, float *psi, float *z);
+
+/* STATUS_CLAMPED if a float32 SAMPLE lies past the bounds above, which no road vehicle
+ * reaches: RLS does not learn from it in any mode, as FIXED cannot hold it. */
+uint8_t longit_past_bounds(const uint8_t *in);
 
 /* x = [v̇ Q24, ½ρv² Q18, z Q14] from a FIXED SAMPLE (v Q24, v̇ Q24, z Q14), clamped to the bounds above
  * (STATUS_CLAMPED into *status). */

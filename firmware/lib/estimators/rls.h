@@ -10,7 +10,7 @@
  * excited, p_cap · P(0) when it is not), and forgetting one multiply of the scalar l;
  * the regressor, the denominator and the gains get an exponent each per step. Every
  * multiply is fixmath's assembly kernel for its shift.
- * It needs v < 82 m/s, |v̇| < 16 m/s², |z| < 32 kN (longit.h) and takes no prefilter.
+ * It needs v < 82 m/s, |v̇| < 16 m/s², |z| < 65.5 kN (longit.h) and takes no prefilter.
  *
  * ILL_CONDITIONED while a variance P_ii is above held_max P(0)_ii: the prior (or the
  * forgetting and the windup guard that hold P near it) carries that estimate more than the

@@ -452,7 +452,7 @@ static void filter_q(const stlqf_q_t *q, const int32_t *x, const int32_t h[2][3]
 {
     int64_t row[STLQF_COLS];
     for (uint8_t c = 0; c < 3u; c++) {
-        int32_t d1 = x[c] - h[0][c], d0 = h[0][c] - h[1][c]; /* the bounds keep these */
+        int32_t d1 = x[c] - h[0][c], d0 = h[0][c] - h[1][c]; /* |x| < 2^30 keeps these */
         int64_t c2_d0 = fx_mul64(q->c2, d0);
         int64_t f = fx_mul64(x[c], 64) + fx_mul64_rs10(q->c1, d1) +
                     (fx_mul64(q->c2, d1) - c2_d0);

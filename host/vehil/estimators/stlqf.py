@@ -53,6 +53,10 @@ WINDOW = 2 * WL + 1
 ROWS = WINDOW - 2  # filtered rows in a window: φ̃[k] needs φ[k-2]
 EPS_DEFAULT = math.atan(0.015)
 
+# A sample no road vehicle makes (longit.h: FIXED's input bounds, a 4 t vehicle at 1.6 g):
+# RLS learns nothing from it, in every mode (docs/estimators/rls.md, "A sample past the bounds").
+V_MAX, V_DOT_MAX, Z_MAX = 82.0, 16.0, 65536.0
+
 INPUTS = (
     Signal("v", "m/s", q=24, doc="vehicle speed"),
     Signal("v_dot", "m/s^2", q=24, doc="vehicle acceleration"),
@@ -199,6 +203,7 @@ def weights_ok(p: Mapping[str, float]) -> bool:
 
 
 SINGULAR = 0x04  # STATUS_SINGULAR
+CLAMPED = 0x08  # STATUS_CLAMPED
 ILL_CONDITIONED = 0x10  # STATUS_ILL_CONDITIONED
 
 
@@ -332,6 +337,10 @@ class Rls:
         self.flags = 0
 
     def step(self, u: np.ndarray) -> np.ndarray:
+        v, v_dot, z = (abs(float(x)) for x in u)
+        if v > V_MAX or v_dot > V_DOT_MAX or z > Z_MAX:  # held: not learnt from
+            self.flags = (self.flags & ILL_CONDITIONED) | CLAMPED
+            return np.array([self.theta[0], self.theta[1], grade_deg(self.theta, self.p)])
         psi, z = measured(u, self.p, self.prefilter)
         lam = self.p["lambda"]
         ppsi = self.P @ psi
