@@ -169,6 +169,12 @@ def read_columns(
             )
         if not row or (len(row) == 1 and not row[0].strip()):
             continue  # a blank line
+        if any(c.strip() for c in row[len(cells) :]):
+            raise LogError(
+                f"{path}: line {line} has {len(row)} fields, the header {len(cells)}: a value "
+                "with an unquoted comma (a decimal comma?) shifts every column after it; "
+                "quote such values, or export with a decimal point"
+            )
         cell = row[jt].strip()
         if cell.lower() not in MISSING:
             try:

@@ -11,7 +11,9 @@ channel, what was done, for the run's report (docs/logs.md).
 
 from __future__ import annotations
 
+import gc
 import math
+import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -54,7 +56,12 @@ def read_mdf4(path: Path, channels: list[str]) -> Columns:
     try:
         mdf = MDF(str(path))
     except Exception as exc:  # asammdf raises many types for a bad file
-        raise LogError(f"{path}: not a readable MDF file: {exc}") from None
+        reason = str(exc)
+    else:
+        reason = ""
+    if reason:
+        _collect_quietly()
+        raise LogError(f"{path}: not a readable MDF file: {reason}")
     values, units_of = {}, {}
     with mdf:
         for name in channels:
@@ -71,6 +78,17 @@ def read_mdf4(path: Path, channels: list[str]) -> Columns:
             values[f"{name}@t"] = np.asarray(sig.timestamps, dtype=np.float64)
             units_of[name] = sig.unit or ""
     return Columns(values, units_of)
+
+
+def _collect_quietly() -> None:
+    """Collects what a failed MDF() left: asammdf's half-built reader fails in its __del__
+    (no file attribute), which would print a traceback below the error."""
+    hook = sys.unraisablehook
+    sys.unraisablehook = lambda _: None
+    try:
+        gc.collect()
+    finally:
+        sys.unraisablehook = hook
 
 
 def read_recording(path: Path) -> Columns:

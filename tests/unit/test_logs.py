@@ -1,7 +1,9 @@
 """Recorded drives: units converted or refused, each channel cleaned and resampled on its
 own, gaps and edges handled, raw CAN decoded with a DBC; each problem is located."""
 
+import gc
 import math
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -54,6 +56,10 @@ def test_a_csv_log_is_resampled_onto_the_sample_grid(tmp_path) -> None:  # noqa:
         (
             "t [s],speed [1]\n0,1\n0.1,2\n0.2\n",
             r"line 4 has 1 fields, the header 2 \(the file looks",
+        ),
+        (
+            "t [s],speed [1]\n0,1\n0.1,2,5\n",
+            r"line 3 has 3 fields, the header 2: a value with an unquoted comma \(a decimal",
         ),
         ("t [s],speed [1]\n0,1\n0.1,fast\n", r"line 3, column speed: 'fast' is not a number"),
         ("t [s],speed [1]\n0,1\n0.1,inf\n", r"line 3, column speed: inf is not a finite number"),
@@ -234,6 +240,27 @@ def test_an_mdf4_log_gives_its_channels_with_their_units(tmp_path) -> None:  # n
         trace_from_log(log(path, format="mdf4", columns={"y": "odo"}), SPEC, 0.02, math.inf)
     with pytest.raises(LogError, match="no channel 'rpm'"):
         trace_from_log(log(path, format="mdf4", columns={"y": "rpm"}), SPEC, 0.02, math.inf)
+
+
+def test_a_cut_mdf4_file_is_refused_with_no_traceback_after_the_error(tmp_path) -> None:  # noqa: ANN001
+    from asammdf import MDF, Signal
+
+    t = np.arange(0, 1, 0.01)
+    mdf = MDF(version="4.10")
+    mdf.append([Signal(np.sin(t), t, name="speed", unit="1")])
+    whole = tmp_path / "whole.mf4"
+    mdf.save(whole, overwrite=True)
+    path = tmp_path / "drive.mf4"
+    path.write_bytes(whole.read_bytes()[: whole.stat().st_size // 2])
+    unraisable: list = []
+    hook, sys.unraisablehook = sys.unraisablehook, unraisable.append
+    try:
+        with pytest.raises(LogError, match="drive.mf4: not a readable MDF file"):
+            trace_from_log(log(path, format="mdf4"), SPEC, 0.02, math.inf)
+        gc.collect()
+    finally:
+        sys.unraisablehook = hook
+    assert unraisable == []  # asammdf's half-built reader, collected quietly
 
 
 @pytest.mark.parametrize(
