@@ -20,8 +20,11 @@ def _g(x: float | None, unit: str = "") -> str:
     return f"{x:.4g}{(' ' + unit) if unit else ''}"
 
 
-def verdict_cell(o: OutputFigures) -> str:
-    """One output's verdict, the same words in the console and in report.md."""
+def verdict_cell(o: OutputFigures, figures: Figures) -> str:
+    """One output's verdict, the same words in the console and in report.md; a run that
+    stopped short passes an output only over the samples it checked, and says so."""
+    if o.passed and figures.expected is not None and figures.samples < figures.expected:
+        return f"pass over {figures.samples:,} of {figures.expected:,} samples only"
     if o.passed is None:
         if o.reference.rmse is None:
             return "not checked (no samples)"
@@ -55,11 +58,11 @@ def summary_table(figures: Figures, title: str) -> Table:
     ):
         t.add_column(col, justify="right")
     for name, o in figures.outputs.items():
-        style = {True: "green", False: "bold red", None: "yellow"}[o.passed]
+        style = {True: "green", False: "bold red", None: "yellow"}[o.passed and figures.passed]
         t.add_row(
             f"{name} [{o.unit}]" if o.unit else name,
             *_cells(o, "|ref|"),
-            f"[{style}]{escape(verdict_cell(o))}[/]",
+            f"[{style}]{escape(verdict_cell(o, figures))}[/]",
         )
     c, r = figures.cycles, figures.rtt_ms
     flags = ", ".join(f"{k} x{v}" for k, v in figures.status.items() if v) or "none"
@@ -209,7 +212,7 @@ def write(s: Series, figures: Figures, context: dict[str, Any], out: Path, every
     data = {**context, **figures.to_json()}
     (out / "figures.json").write_text(json.dumps(data, indent=2, default=str))
     plots = _plots(s, out, every)
-    lines = [f"# {context.get('title', 'vehil run')}", ""]
+    lines = [f"# {context.get('title', 'vehil run')}", "", _overall(figures), ""]
     for k in (
         "scenario",
         "board",
@@ -222,7 +225,7 @@ def write(s: Series, figures: Figures, context: dict[str, Any], out: Path, every
         "recording",
     ):
         if context.get(k) is not None:
-            lines.append(f"- **{k}**: {context[k]}")
+            lines.append(f"- **{k}**: " + str(context[k]).replace("\n", "\n  "))
     lines += [
         "",
         "| output | tolerance | RMSE vs ref | max abs vs ref (k) "
@@ -230,7 +233,7 @@ def write(s: Series, figures: Figures, context: dict[str, Any], out: Path, every
         "|---|---|---|---|---|---|",
     ]
     for name, o in figures.outputs.items():
-        cells = [*_cells(o, "abs(ref)"), verdict_cell(o)]
+        cells = [*_cells(o, "abs(ref)"), verdict_cell(o, figures)]
         lines.append(f"| {name} [{o.unit}] | " + " | ".join(cells) + " |")
     c, r = figures.cycles, figures.rtt_ms
     lines += [
@@ -240,9 +243,6 @@ def write(s: Series, figures: Figures, context: dict[str, Any], out: Path, every
         f"{_stack(figures)}. Round trip: p50 {_g(r['p50'])} ms, p99 {_g(r['p99'])} ms. "
         f"Late samples: {figures.late}.",
         "",
-        f"Overall: **{figures.verdict.word}**"
-        + (f": {figures.verdict.reason}" if figures.verdict.reason else ""),
-        "",
     ]
     lines += _log_table(context)
     for caption, file in plots:
@@ -250,6 +250,12 @@ def write(s: Series, figures: Figures, context: dict[str, Any], out: Path, every
     md = out / "report.md"
     md.write_text("\n".join(lines))
     return md
+
+
+def _overall(figures: Figures) -> str:
+    """The verdict as report.md heads it, on one line."""
+    reason = "; ".join(line.strip() for line in figures.verdict.reason.splitlines())
+    return f"Overall: **{figures.verdict.word}**" + (f": {reason}" if reason else "")
 
 
 def _log_table(context: dict[str, Any]) -> list[str]:

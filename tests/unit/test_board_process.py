@@ -108,3 +108,16 @@ def test_a_board_program_whose_host_died_before_the_signal_was_set_never_starts(
     started.unlink()
     argv[host] = "1"  # as seen by a child whose host has gone: another parent
     assert subprocess.run(argv).returncode != 0 and not started.exists()
+
+
+def test_a_board_program_that_ends_says_how() -> None:
+    board = BoardProcess(["sh", "-c", "echo broke >&2; exit 3"], "bridge")
+    with pytest.raises(BoardStartError, match="bridge exited with status 3 before it was ready"):
+        board.read_line(10)
+    killed = BoardProcess(["sleep", "60"], "bridge")
+    assert killed.state() == "is still running"
+    killed.proc.send_signal(signal.SIGKILL)
+    killed.proc.wait(timeout=10)
+    assert killed.state() == "was killed by SIGKILL"
+    board.stop()
+    killed.stop()

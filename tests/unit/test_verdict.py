@@ -94,7 +94,9 @@ def test_a_run_with_nothing_checked_says_so_and_does_not_pass(tmp_path) -> None:
 def test_a_run_that_did_not_complete_is_never_pass(tmp_path, ending, word, status) -> None:  # noqa: ANN001
     s = series(np.ones(20), np.ones(20), {"y": Tolerance(abs=0.1)}, expected=100, **ending)
     md, data, figures = written(s, tmp_path)
-    assert f"Overall: **{word}**" in md and "PASS" not in md
+    assert md.splitlines()[2].startswith(f"Overall: **{word}**") and "PASS" not in md
+    assert row(md, "y").endswith("| pass over 20 of 100 samples only |")
+    assert "pass over 20 of 100 samples only" in console_text(figures)
     assert data["pass"] is False and data["verdict"]["word"] == word
     assert figures.verdict.exit_status == status == data["exit_status"]
 
@@ -199,3 +201,15 @@ def test_a_tolerance_from_a_sample_checks_from_that_sample_and_says_so(tmp_path)
         s = series(board, np.ones(40), {"y": Tolerance(abs=0.1, from_samples=start)})
         md, _, figures = written(s, tmp_path)
         assert f"from sample {start}" in row(md, "y") and figures.verdict.word == word
+
+
+def test_a_multi_line_error_stays_inside_report_md_s_bullet_and_verdict(tmp_path) -> None:  # noqa: ANN001
+    error = "board lost after 5 of 100 samples: no reply\nsimavr was killed by SIGKILL"
+    tol = {"y": Tolerance(abs=0.1)}
+    s = series(np.ones(5), np.ones(5), tol, expected=100, ended="failed", error=error)
+    figures = compare.evaluate(s)
+    md = report.write(s, figures, {"title": "t", "error": error}, tmp_path).read_text()
+    lines = md.splitlines()
+    assert lines[2] == f"Overall: **FAILED**: {error.replace(chr(10), '; ')}"
+    assert "- **error**: board lost after 5 of 100 samples: no reply" in lines
+    assert "  simavr was killed by SIGKILL" in lines  # the bullet's own continuation

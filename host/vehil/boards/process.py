@@ -78,13 +78,21 @@ class BoardProcess:
                     if line:
                         return line.decode(errors="replace").strip()
                     break
-        self.proc.poll()
-        if self.proc.returncode is not None:
-            raise self.failure(f"exited with status {self.proc.returncode} before it was ready")
+        if not self.alive():
+            raise self.failure(f"{self.state()} before it was ready")
         raise self.failure(f"printed nothing within {timeout_s:.0f} s")
 
     def alive(self) -> bool:
         return self.proc.poll() is None
+
+    def state(self) -> str:
+        """Running, exited with its status, or killed by a signal (a negative returncode)."""
+        code = self.proc.poll()
+        if code is None:
+            return "is still running"
+        if code < 0:
+            return f"was killed by {signal.Signals(-code).name}"
+        return f"exited with status {code}"
 
     def stop(self, grace_s: float = 2.0) -> None:
         if self.proc.poll() is None:
@@ -124,8 +132,7 @@ class ProcessBoard(Board):
         if self.process is None:
             return ""
         tail = self.process.stderr_tail()
-        state = "running" if self.process.alive() else f"exited ({self.process.proc.returncode})"
-        return f"\n{self.name} is {state}" + (f"; it said:\n{tail}" if tail else "")
+        return f"\n{self.name} {self.process.state()}" + (f"; it said:\n{tail}" if tail else "")
 
     def stop(self) -> None:
         if self.process is not None:
