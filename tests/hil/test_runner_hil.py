@@ -115,6 +115,7 @@ LONGER = {
     "manf-hard-stop-fixed": 4.0,
     "manf-abs-snow": 6.0,
     "manf-wet-fast-fixed": 8.0,  # unlike the shipped drives
+    "manf-heavy-hifi-fixed": 1.0,  # 2.6 t on the hi-fi plant: the gains part at 0.3 s
     "anf-abs-snow-fixed": 3.0,  # bit-exact with the native build
     "uiiekf3-abs-dry": 1.5,
     "mismatch-iso-c60-kfui": 3.0,  # a quarter car the KF-UI does not know

@@ -19,6 +19,7 @@ DIVERGED = SCHEMA.status["DIVERGED"]
         "manf-abs-snow",
         "manf-hard-stop-10ms-rate",
         "manf-hard-stop-10ms-rate-fixed",
+        "manf-heavy-hifi-fixed",  # unlike the shipped drives: 2.6 t on the hi-fi plant
         "anf-hard-stop",
         "anf-abs-snow-fixed",
         "uiiekf3-abs-dry",
