@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import os
 import selectors
 import shutil
@@ -77,6 +78,8 @@ class BoardProcess:
                     line = self.proc.stdout.readline()
                     if line:
                         return line.decode(errors="replace").strip()
+                    with contextlib.suppress(subprocess.TimeoutExpired):
+                        self.proc.wait(remaining)  # its output closed: it is ending
                     break
         if not self.alive():
             raise self.failure(f"{self.state()} before it was ready")
