@@ -200,6 +200,7 @@ void profiler_step(avr_t *avr, avr_flashaddr_t pc0, avr_cycle_count_t c0, uint8_
 		P.nodes[top->node].calls++;
 	}
 	uint64_t dc = avr->cycle - c0;
+	touch(top->node);	/* a frame returned to counts in this window too */
 	P.nodes[top->node].self += dc;
 	P.window_cycles += dc;
 	if (pc0 >> 1 < P.n_words)

@@ -8,6 +8,7 @@
 
 #include "board/dispatch.h"
 #include "board/port.h"
+#include "port_inline.h"
 #include "port_tx.h"
 #include "proto/messages.h"
 

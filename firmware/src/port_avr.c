@@ -65,7 +65,6 @@ void port_avr_init(void)
     uart_init(UART_DEFAULT_BAUD);
 }
 
-uint32_t port_cycles(void) { return cycles_now(); }
 uint32_t port_cycles_per_second(void) { return F_CPU; }
 
 void port_rx_release(uint8_t n) { uart_rx_release(n); }
@@ -74,7 +73,6 @@ void port_tx_close(uint8_t code) { uart_tx_close(code); }
 
 void port_flush(void) { uart_flush(); }
 uint16_t port_rx_buffer(void) { return UART_RX_SIZE - 1u; }
-uint16_t port_rx_overruns(void) { return uart_rx_overruns(); }
 
 /* The rings' indices count the bytes the interrupts moved (mod 256: no more than a
  * ring's worth can move during a step, the host keeping no more in flight), and each

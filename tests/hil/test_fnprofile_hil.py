@@ -102,6 +102,12 @@ def test_the_link_frame_path_per_ping(tmp_path) -> None:  # noqa: ANN001
     assert whole.window_cycles[0] / 30 > np.median(frames.window_cycles)
     idle = whole.function(collect.IDLE_FUNCTION)  # the firmware's wait for bytes
     assert idle is not None and idle.self[0] > 0
+    # every instruction's cycles are in the window, the dispatch loop's own too: main
+    # runs between its calls, only ever returned to (the bridge once dropped a frame
+    # that nothing called or jumped into during the window)
+    assert sum(whole.pc_cycles.values()) == whole.window_cycles.sum()
+    main = whole.function("main")
+    assert main is not None and main.self[0] > 30 * 100
 
 
 def test_vehil_run_profile_puts_the_flame_graph_in_the_report(tmp_path) -> None:  # noqa: ANN001

@@ -5,8 +5,9 @@
 
 #include <stdint.h>
 
-/* Free-running counter of CPU cycles (wraps at 2^32) and its rate in Hz. */
-uint32_t port_cycles(void);
+/* Free-running counter of CPU cycles (wraps at 2^32) and its rate in Hz.
+ * uint32_t port_cycles(void) comes from the platform's port_inline.h (firmware/src,
+ * firmware/native), so the AVR's can be inline: every frame the core handles reads it. */
 uint32_t port_cycles_per_second(void);
 
 /* Frames are encoded straight into the TX buffer. port_tx_open() appends a
@@ -25,8 +26,8 @@ void port_flush(void);
 void port_rx_release(uint8_t n);
 /* Bytes the RX buffer holds; the host keeps no more than this in flight. */
 uint16_t port_rx_buffer(void);
-/* Bytes dropped because the RX buffer was full, since boot (saturating). */
-uint16_t port_rx_overruns(void);
+/* Bytes dropped because the RX buffer was full, since boot (saturating):
+ * uint16_t port_rx_overruns(void), from port_inline.h, read after every frame. */
 /* A mark of the UART interrupts' work so far, and the cycles they have taken since a
  * mark: a step's cycles are its own, whatever bytes arrive or leave while it runs. */
 uint16_t port_irq_mark(void);

@@ -1,0 +1,23 @@
+/* The port.h functions the message core calls for every frame, inline for the
+ * ATmega2560 (see board/port.h). */
+#ifndef VEHIL_PORT_INLINE_H
+#define VEHIL_PORT_INLINE_H
+
+#include <stdint.h>
+#include <util/atomic.h>
+
+#include "cycles.h"
+
+static inline uint32_t port_cycles(void) { return cycles_now(); }
+
+/* uart.c's count of received bytes dropped for a full ring (uart_isr.S counts them). */
+extern volatile uint16_t uart_rx_lost;
+
+static inline uint16_t port_rx_overruns(void)
+{
+    uint16_t n;
+    ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { n = uart_rx_lost; }
+    return n;
+}
+
+#endif
