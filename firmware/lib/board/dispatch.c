@@ -56,6 +56,21 @@ static inline uint32_t stopwatch_read(const stopwatch_t *w)
     return port_cycles() - w->start - irq;
 }
 
+/* A 32-bit count kept as two halves: the low one alone changes unless it wraps, half
+ * the instructions of a 32-bit increment on the AVR (every exchange counts twice). */
+typedef struct {
+    uint16_t low, high;
+} count_t;
+
+static inline void count_up(count_t *c)
+{
+    if (++c->low == 0u) {
+        c->high++;
+    }
+}
+
+static inline uint32_t count_value(const count_t *c) { return ((uint32_t)c->high << 16) | c->low; }
+
 static struct {
     frame_rx_t rx; /* the request being received, decoded and checked byte by byte */
     uint8_t body[VEHIL_MAX_BODY]; /* replies other than PONG and RESULT are packed here */
@@ -64,6 +79,7 @@ static struct {
     uint8_t mode;
     uint16_t probe_cycles; /* cost of reading the cycle counter, subtracted from steps */
     uint16_t overruns_reported;
+    count_t rx_frames, tx_frames; /* the STATS reply's, filled in when it is packed */
     msg_stats_t stats;
 } core;
 
@@ -126,7 +142,7 @@ static void send_body(const request_t *req, uint8_t type, const uint8_t *body, u
     frame_tx_begin(&tx, req->type, type, req->seq, body_len);
     frame_tx_bytes(&tx, body, body_len);
     frame_tx_end(&tx);
-    core.stats.tx_frames++;
+    count_up(&core.tx_frames);
 }
 
 static void send(const request_t *req, uint8_t type, uint8_t body_len)
@@ -206,7 +222,7 @@ static void on_ping(const request_t *r)
     msg_pong_t pong = {.timestamp = r->at};
     msg_pong_pack(&pong, frame_echo_head(&core.rx));
     frame_tx_echo(&core.rx, r->type, MSG_PONG, r->seq, r->body_len);
-    core.stats.tx_frames++;
+    count_up(&core.tx_frames);
 }
 VEHIL_STATIC_ASSERT(MSG_PONG_FIXED_SIZE == FRAME_HEADER_SIZE, "frame_tx_echo's head is a PONG's");
 
@@ -377,6 +393,8 @@ static void on_get_stats(const request_t *r)
     core.stats.stack_size = port_stack_size();
     core.stats.stack_unused = port_stack_unused();
     core.stats.timestamp = port_cycles();
+    core.stats.rx_frames = count_value(&core.rx_frames);
+    core.stats.tx_frames = count_value(&core.tx_frames);
     msg_stats_pack(&core.stats, core.body);
     send(r, MSG_STATS, MSG_STATS_FIXED_SIZE);
 }
@@ -458,7 +476,7 @@ static void end_of_frame(frame_status_t st)
             frame_type(&core.rx), frame_seq(&core.rx), frame_body(&core.rx), frame_body_len(&core.rx),
             port_cycles(),
         };
-        core.stats.rx_frames++;
+        count_up(&core.rx_frames);
         handle(&req);
         core.stats.frame_cycles += port_cycles() - req.at;
     } else if (st == FRAME_OVERSIZE) {
