@@ -142,12 +142,13 @@ def test_fixed_point_refuses_what_it_cannot_hold_naming_it(built, spec, change, 
     assert exc.value.detail == [p.name for p in spec.params].index(named)
 
 
-def test_fixed_point_stlqf_flags_inputs_past_its_bounds_as_clamped(built) -> None:  # noqa: ANN001
+@pytest.mark.parametrize("mode", ["F32", "FIXED"])
+def test_stlqf_flags_inputs_past_its_bounds_as_clamped(built, mode) -> None:  # noqa: ANN001
     spec = stlqf.STLQF
     with open_board("native") as link:
-        link.configure("stlqf", "FIXED", spec.encode_params(spec.param_values({}), "FIXED"))
+        link.configure("stlqf", mode, spec.encode_params(spec.param_values({}), mode))
         fine, fast = link.pipeline(
-            ("SAMPLE", {"inputs": spec.encode_inputs(u, "FIXED")})
+            ("SAMPLE", {"inputs": spec.encode_inputs(u, mode)})
             for u in ([10.0, 1.0, 1500.0], [90.0, 1.0, 1500.0])  # the second past 82 m/s
         )
     assert not fine.fields()["status"] & 0x08 and fast.fields()["status"] & 0x08

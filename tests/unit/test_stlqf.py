@@ -70,6 +70,19 @@ def test_rls_recovers_constant_parameters_on_a_flat_road() -> None:
     assert abs(out[-1, 2]) < 0.01
 
 
+def test_stlqf_takes_a_sample_no_vehicle_makes_clamped_to_the_bounds() -> None:
+    """As FIXED does: the same estimates as with the clamped sample, and CLAMPED."""
+    p = stlqf.STLQF.param_values({})
+    past, clamped = stlqf.Stlqf(p), stlqf.Stlqf(p)
+    for k in range(20):
+        u = np.array([10.0 + 0.1 * k, (-1.0) ** k, 1500.0 * (-1.0) ** k + 200.0])
+        shock = k == 12
+        big = u * [1.0, 30.0, 60.0]  # 30 m/s², 90 kN
+        a = past.step(big if shock else u)
+        b = clamped.step(np.clip(big, -stlqf.BOUNDS, stlqf.BOUNDS) if shock else u)
+        assert np.array_equal(a, b) and bool(past.flags & stlqf.CLAMPED) == shock
+
+
 def test_rls_learns_nothing_from_a_sample_no_vehicle_makes() -> None:
     """Past |v̇| 16 m/s², |z| 65.5 kN or v 82 m/s (FIXED's bounds) the estimate is held and
     CLAMPED raised; a 4 t vehicle at 1.6 g is inside them."""

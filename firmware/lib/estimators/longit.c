@@ -79,13 +79,32 @@ static void prefilter(longit_t *l, float *x)
     l->started = 1;
 }
 
+uint8_t longit_past_bounds(const uint8_t *in)
+{
+    float v = fabsf(get_f32(in)), v_dot = fabsf(get_f32(in + 4)), z = fabsf(get_f32(in + 8));
+    return v > LONGIT_V_MAX || v_dot > LONGIT_VDOT_MAX || z > LONGIT_Z_MAX ? STATUS_CLAMPED : 0u;
+}
+
+/* x within ±bound, STATUS_CLAMPED into *status if it was not (as FIXED's clamp). */
+static float bounded(float x, float bound, uint8_t *status)
+{
+    if (x > bound || x < -bound) {
+        *status |= STATUS_CLAMPED;
+        return x > 0.0f ? bound : -bound;
+    }
+    return x;
+}
+
 uint8_t longit_inputs(longit_t *l, const uint8_t *in, float *psi, float *z)
 {
-    float v = get_f32(in), v_dot = get_f32(in + 4);
-    float x[3] = {v_dot, l->half_rho * v * v, get_f32(in + 8)};
-    if (!isfinite(v) || !isfinite(v_dot) || !isfinite(x[2])) {
+    float v = get_f32(in), v_dot = get_f32(in + 4), f = get_f32(in + 8);
+    if (!isfinite(v) || !isfinite(v_dot) || !isfinite(f)) {
         return STATUS_NOT_FINITE;
     }
+    uint8_t status = 0;
+    v = bounded(v, LONGIT_V_MAX, &status);
+    float x[3] = {bounded(v_dot, LONGIT_VDOT_MAX, &status), l->half_rho * v * v,
+                  bounded(f, LONGIT_Z_MAX, &status)};
     if (l->filter) {
         prefilter(l, x);
     }
@@ -93,13 +112,7 @@ uint8_t longit_inputs(longit_t *l, const uint8_t *in, float *psi, float *z)
     psi[1] = x[1];
     psi[2] = l->g_cos;
     *z = x[2];
-    return 0;
-}
-
-uint8_t longit_past_bounds(const uint8_t *in)
-{
-    float v = fabsf(get_f32(in)), v_dot = fabsf(get_f32(in + 4)), z = fabsf(get_f32(in + 8));
-    return v > LONGIT_V_MAX || v_dot > LONGIT_VDOT_MAX || z > LONGIT_Z_MAX ? STATUS_CLAMPED : 0u;
+    return status;
 }
 
 static int32_t clamp(int32_t x, int32_t bound, uint8_t *status)

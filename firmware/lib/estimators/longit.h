@@ -90,8 +90,8 @@ static inline uint8_t longit_bit_length(uint32_t x)
 /* The prefilter back to its start (it settles on the next sample). */
 void longit_reset(longit_t *l);
 
-/* ψ and z from a SAMPLE's v, v̇, z, prefiltered; STATUS_NOT_FINITE (and nothing read)
- * if one is not finite. */
+/* ψ and z from a SAMPLE's v, v̇, z, clamped to the bounds above (STATUS_CLAMPED, as
+ * FIXED's), prefiltered; STATUS_NOT_FINITE (and nothing read) if one is not finite. */
 uint8_t longit_inputs(longit_t *l, const uint8_t *in, float *psi, float *z);
 
 /* STATUS_CLAMPED if a float32 SAMPLE lies past the bounds above, which no road vehicle

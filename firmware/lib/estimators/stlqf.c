@@ -703,9 +703,10 @@ static void push(stlqf_state_t *s, const void *x)
 static uint8_t step_f32(stlqf_state_t *s, const uint8_t *in, uint8_t *out)
 {
     float psi[3], z, log_cond = 0.0f;
-    /* A non-finite sample is dropped: the window keeps its rows. */
+    /* A non-finite sample is dropped: the window keeps its rows; one past the bounds is
+     * taken clamped to them, as FIXED takes it. */
     uint8_t status = longit_inputs(&s->model, in, psi, &z);
-    if (status == 0u) {
+    if (!(status & STATUS_NOT_FINITE)) {
         const float x[3] = {psi[0], psi[1], z};
         push(s, x);
         if (s->n_rows == STLQF_ROWS) {

@@ -54,8 +54,14 @@ ROWS = WINDOW - 2  # filtered rows in a window: φ̃[k] needs φ[k-2]
 EPS_DEFAULT = math.atan(0.015)
 
 # A sample no road vehicle makes (longit.h: FIXED's input bounds, a 4 t vehicle at 1.6 g):
-# RLS learns nothing from it, in every mode (docs/estimators/rls.md, "A sample past the bounds").
-V_MAX, V_DOT_MAX, Z_MAX = 82.0, 16.0, 65536.0
+# in every mode STLQF takes it clamped to them and RLS learns nothing from it
+# (docs/estimators/stlqf.md and rls.md, "A sample past the bounds").
+BOUNDS = np.array([82.0, 16.0, 65536.0])  # v, v̇, z
+
+
+def past_bounds(u: np.ndarray) -> bool:
+    return bool(np.any(np.abs(np.asarray(u, dtype=np.float64)) > BOUNDS))
+
 
 INPUTS = (
     Signal("v", "m/s", q=24, doc="vehicle speed"),
@@ -294,8 +300,9 @@ class Stlqf:
 
     def step(self, u: np.ndarray) -> np.ndarray:
         p = self.p
-        self._push(*measured(u, p, self.prefilter))
-        self.flags = 0
+        clamped = past_bounds(u)
+        self._push(*measured(np.clip(u, -BOUNDS, BOUNDS), p, self.prefilter))
+        self.flags = CLAMPED if clamped else 0
         log_cond = 0.0
         if len(self.rows) == ROWS:
             gram, rhs = self.window_system()
@@ -337,8 +344,7 @@ class Rls:
         self.flags = 0
 
     def step(self, u: np.ndarray) -> np.ndarray:
-        v, v_dot, z = (abs(float(x)) for x in u)
-        if v > V_MAX or v_dot > V_DOT_MAX or z > Z_MAX:  # held: not learnt from
+        if past_bounds(u):  # held: not learnt from
             self.flags = (self.flags & ILL_CONDITIONED) | CLAMPED
             return np.array([self.theta[0], self.theta[1], grade_deg(self.theta, self.p)])
         psi, z = measured(u, self.p, self.prefilter)
