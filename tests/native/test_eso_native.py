@@ -23,6 +23,7 @@ SCENARIOS = DATA_ROOT / "scenarios" / "eso"
         ("s1-sine-eso", 1e-5),  # float32
         ("s1-sine-eso-fixed", 2e-5),  # fixed point: the high-pass's step in Q37
         ("hard-bumps-eso-fixed", 2e-5),  # a_us to -391 m/s²: no saturation
+        ("unlike-bumps-200hz-fixed", 2e-5),  # 200 Hz, another car: 4.3e-5 with the step in Q21
         ("s3-random-eso-b", 5e-5),
         ("s4-random-kfui", 5e-5),
     ],
