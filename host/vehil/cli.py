@@ -25,7 +25,7 @@ from vehil.boards import (
     make_board,
     open_board,
 )
-from vehil.errors import Terminated, VehilError
+from vehil.errors import NotComparable, Terminated, VehilError
 from vehil.link import BoardInfo, Link
 from vehil.paths import runs_dir
 from vehil.ping import PingSummary, run_ping
@@ -550,6 +550,13 @@ def cmd_compare(args: argparse.Namespace) -> int:
     for rec in (a, b):
         if rec.truncated:
             console.print(f"[yellow]warning:[/] {rec.path}: {rec.truncated}")
+    if why := compare.drive_difference(a, b):
+        names = [r.header.get("scenario", {}).get("name", "?") for r in (a, b)]
+        raise NotComparable(
+            f"{a.path} (A, scenario {names[0]!r}) and {b.path} (B, {names[1]!r}) are not runs "
+            f"of one drive: {why}. vehil compare sets two runs of one drive side by side "
+            "(board vs board, build vs build): compare A with a run of its own scenario"
+        )
     d = compare.diff_runs(compare.series_from_recording(a), compare.series_from_recording(b))
     within = all(o["max_abs"] <= args.atol for o in d["outputs"].values())
     same_length = d["lengths"][0] == d["lengths"][1]
@@ -562,9 +569,25 @@ def cmd_compare(args: argparse.Namespace) -> int:
         )
     else:
         says = "same results" if same else "results differ"
+    if not same_length:
+        says += "; " + _shorter_run(a, b)
     _show(args, report.diff_table(d, str(a.path), str(b.path)), {**d, "verdict": says})
     console.print(f"[green]{says}[/]" if same else f"[bold red]{says}[/]")
     return 0 if same else 1
+
+
+def _shorter_run(a, b) -> str:  # noqa: ANN001
+    """Which of two recordings holds fewer samples, and how its run ended."""
+    short, other = (a, b) if len(a) < len(b) else (b, a)
+    label = "A" if short is a else "B"
+    end = short.end or {}
+    how = end.get("ended") or ("cut short" if short.truncated else "not recorded")
+    error = (end.get("error") or "").splitlines()
+    return (
+        f"{label} holds {len(short):,} samples, the other {len(other):,} (its run: {how}"
+        + (f": {error[0]}" if error else "")
+        + ")"
+    )
 
 
 def cmd_scenarios(args: argparse.Namespace) -> int:

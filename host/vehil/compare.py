@@ -520,6 +520,32 @@ def diff_runs(a: Series, b: Series) -> dict[str, Any]:
     return out
 
 
+def drive_difference(a: Any, b: Any) -> str | None:
+    """Why recordings A and B are not runs of one drive, or None: the same input signals on
+    the same time base with the same values (a closed loop's only at the first sample:
+    after it the inputs follow each run's own board)."""
+    ins_a = sorted(k for k in a.data if k.startswith("in."))
+    ins_b = sorted(k for k in b.data if k.startswith("in."))
+    if ins_a != ins_b:
+        names = [", ".join(k[3:] for k in ins) or "none" for ins in (ins_a, ins_b)]
+        return f"their inputs differ: A's are {names[0]}, B's {names[1]}"
+    n = min(len(a), len(b))
+    if not np.array_equal(a.data["t"][:n], b.data["t"][:n]):
+        k = int(np.flatnonzero(a.data["t"][:n] != b.data["t"][:n])[0])
+        return (
+            f"their time differs from sample {k} (A {a.data['t'][k]:g} s, B {b.data['t'][k]:g} s)"
+        )
+    closed = any(r.header.get("scenario", {}).get("closed_loop") for r in (a, b))
+    m = min(n, 1) if closed else n
+    for key in ins_a:
+        x, y = a.data[key][:m], b.data[key][:m]
+        differ = np.flatnonzero(~((x == y) | (np.isnan(x) & np.isnan(y))))
+        if len(differ):
+            k = int(differ[0])
+            return f"input {key[3:]} differs from sample {k} (A {x[k]:.9g}, B {y[k]:.9g})"
+    return None
+
+
 def series_from_recording(rec: Any) -> Series:
     """A vehil.record.Recording as a Series (tolerances and ending as recorded with the run)."""
     d = rec.data

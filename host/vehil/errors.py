@@ -45,6 +45,10 @@ class PlantLimit(VehilError):
     """A plant driven past what its model can simulate: it says so instead of going NaN."""
 
 
+class NotComparable(VehilError):
+    """Two recordings that are not runs of one drive."""
+
+
 class BuildError(VehilError):
     """A build step (compiler, PlatformIO, make) failed."""
 

@@ -141,3 +141,18 @@ def test_an_exchange_by_part_grows_with_its_bytes(tmp_path) -> None:  # noqa: AN
     assert sum(parts[16][k] for k in tables.EXCHANGE_PARTS[:-1]) == pytest.approx(
         parts[16]["not waiting"]
     )
+
+
+def test_profiles_go_where_runs_go_or_where_out_says(tmp_path, monkeypatch) -> None:  # noqa: ANN001
+    """$VEHIL_RUNS (or runs/) when no folder is named, --out exactly as given."""
+    from vehil import cli
+
+    monkeypatch.setenv("VEHIL_RUNS", str(tmp_path / "runs"))
+    monkeypatch.chdir(tmp_path)
+    assert cli.main(["profile", "--functions", "--ping", "16", "--count", "5"]) == 0
+    assert (tmp_path / "runs/profile-functions-ping16-frame-simavr/profile.md").exists()
+    out = tmp_path / "mine"
+    args = ["profile", "--functions", "sine", "--samples", "20", "--per", "run", "--out", str(out)]
+    assert cli.main(args) == 0
+    assert (out / "profile.md").exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["mine", "runs"]

@@ -85,15 +85,45 @@ def test_every_command_that_prints_a_table_gives_json(recorded, command, capsys)
         assert all(t["title"] and t["rows"] for t in data)
 
 
-def test_compare_of_runs_with_no_output_in_common_says_so(recorded, tmp_path, capsys) -> None:  # noqa: ANN001
-    other = tmp_path / "acc"
-    assert cli.main(
-        ["run", "braking/manf-hard-stop", "--board", "native", "--out", str(other)]
-    ) in (0, 1)
+def test_compare_of_runs_of_other_drives_is_an_error_naming_the_difference(
+    recorded,  # noqa: ANN001
+    tmp_path,  # noqa: ANN001
+    capsys,  # noqa: ANN001
+) -> None:
+    other = tmp_path / "manf"
+    args = ["run", "braking/manf-hard-stop", "--board", "native", "--out", str(other)]
+    assert cli.main(args) in (0, 1)
     capsys.readouterr()
-    assert cli.main(["compare", str(recorded), str(other)]) == 1
-    said = capsys.readouterr().out
-    assert "share no outputs" in said and "results differ" not in said
+    assert cli.main(["compare", str(recorded), str(other)]) == 2
+    said = " ".join(capsys.readouterr().out.split())
+    assert (
+        "(A, scenario 'sine') and" in said and "(B, 'manf-hard-stop') are not runs of one" in said
+    )
+    assert "their inputs differ: A's are y, B's omega_f, omega_r" in said
+    assert "results differ" not in said and "│" not in said  # no table
+    louder = tmp_path / "louder.toml"
+    louder.write_text(
+        (DATA_ROOT / "scenarios/synthetic/sine.toml")
+        .read_text()
+        .replace("amplitude = 2.0", "amplitude = 3.0")
+        .replace("duration = 20.0", "duration = 0.1")
+    )
+    assert cli.main(["run", str(louder), "--board", "native", "--out", str(tmp_path / "l")]) == 0
+    capsys.readouterr()
+    assert cli.main(["compare", str(recorded), str(tmp_path / "l")]) == 2
+    assert "input y differs from sample 1" in " ".join(capsys.readouterr().out.split())
+
+
+def test_compare_with_a_shorter_run_says_which_and_how_it_ended(recorded, tmp_path, capsys) -> None:  # noqa: ANN001
+    cut = tmp_path / "cut.arrow"
+    data = recorded.read_bytes()
+    cut.write_bytes(data[: len(data) // 2])
+    held = len(record.read(cut))
+    assert cli.main(["compare", str(recorded), str(cut)]) == 1
+    said = " ".join(capsys.readouterr().out.split())
+    assert (
+        f"results differ; B holds {held:,} samples, the other 10,000 (its run: cut short)" in said
+    )
 
 
 def test_the_report_keeps_the_firmware_build_as_info_gives_it(recorded) -> None:  # noqa: ANN001

@@ -13,6 +13,7 @@ from rich.console import Console
 from vehil.errors import VehilError
 from vehil.fnprofile import collect, export, tables
 from vehil.fnprofile.model import Profile
+from vehil.paths import runs_dir
 
 
 def show(
@@ -69,7 +70,7 @@ def profile_functions(args: argparse.Namespace, console: Console) -> int:
         baud = int(bauds[0]) if len(bauds) == 1 else None  # one --bauds: the pings' baud
         window = args.window or 1
         for size in args.ping:
-            folder = Path(args.out or f"runs/profile-functions-ping{size}-{per}-{board}")
+            folder = Path(args.out or runs_dir() / f"profile-functions-ping{size}-{per}-{board}")
             if args.out and len(args.ping) > 1:
                 folder = folder / f"ping{size}"
             profile = collect.pings(
@@ -101,9 +102,10 @@ def profile_functions(args: argparse.Namespace, console: Console) -> int:
     sc = scenario.load(args.scenario)
     if args.samples:
         sc = dataclasses.replace(sc, duration=min(sc.duration, args.samples * sc.sample_time))
-    folder = Path(args.out or f"runs/profile-functions-{sc.name}-{board}-{sc.mode.lower()}")
-    if per != "step":
-        folder = folder.with_name(f"{folder.name}-per-{per}")
+    per_what = "" if per == "step" else f"-per-{per}"
+    folder = Path(
+        args.out or runs_dir() / f"profile-functions-{sc.name}-{board}-{sc.mode.lower()}{per_what}"
+    )
     result = collect.scenario_steps(
         sc, board, window=args.window, folder=folder / "bridge", timeout_s=args.timeout, per=per
     )
