@@ -199,3 +199,19 @@ def test_rls_holds_its_estimate_on_a_sample_past_its_bounds(built, mode) -> None
     assert clamped["status"] & 0x08
     assert clamped["outputs"] == heavy["outputs"]  # held: not learnt from
     assert after["outputs"] != clamped["outputs"] and not after["status"] & 0x09
+
+
+@pytest.mark.parametrize("mode", ["F32", "FIXED"])
+def test_rls_a_grade_past_asin_s_domain_is_clamped_not_saturated(run_scenario, mode) -> None:  # noqa: ANN001
+    """A 3,383 kg van on a road rolling 4° at 1 rad/s (a `sweep-rls` drive in FIXED): RLS's
+    m sin / m passes ±1, and past ±2 in places, on the same samples in both modes, float64's
+    grade at ±90° there. That is CLAMPED, as float32 says it; FIXED said SATURATED where the
+    ratio passed its Q30's ±2, which is no format sized too small."""
+    sc = scenario.load("sweep-rls")
+    params = {"mass": 3383.146, "cda": 1.4816, "f_roll": 0.0114, "grade_deg": 4.0324}
+    params |= {"grade_rad_s": 0.9935, "noise_scale": 0.0628, "v_dot_bias": 0.0708, "z_bias": 19.89}
+    sc = dataclasses.replace(
+        sc, mode=mode, seed=23, duration=20.0, plant_params={**sc.plant_params, **params}
+    )
+    status = run_scenario(sc, board="native").figures.status
+    assert status["CLAMPED"] > 100 and status["SATURATED"] == 0

@@ -162,7 +162,10 @@ void longit_outputs_q(const longit_q_t *l, int32_t m, uint8_t q_m, int32_t cda, 
 {
     int32_t ratio = 0;
     if (m > 0) {
-        ratio = fx_div(m_sin, q_ms, m, q_m, 30, status);
+        /* a ratio past Q30's ±2 is past asin's ±1: CLAMPED there, as float32 says it */
+        uint8_t past = 0;
+        ratio = fx_div(m_sin, q_ms, m, q_m, 30, &past);
+        *status |= past ? STATUS_CLAMPED : 0u;
     } else {
         *status |= STATUS_CLAMPED;
     }

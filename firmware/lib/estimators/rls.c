@@ -462,7 +462,10 @@ static uint8_t step_q(rls_state_t *s, const uint8_t *in, uint8_t *out)
     }
     int32_t ratio = 0;
     if (theta[0] > 0) {
-        ratio = ratio_q30(theta[2], theta[0], &st);
+        /* a ratio past Q30's ±2 is past asin's ±1: CLAMPED there, as float32 says it */
+        uint8_t past = 0;
+        ratio = ratio_q30(theta[2], theta[0], &past);
+        st |= past ? STATUS_CLAMPED : 0u;
     } else {
         st |= STATUS_CLAMPED;
     }
