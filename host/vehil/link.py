@@ -63,7 +63,12 @@ class _Pending:
         self.wire_bytes = len(framing.encode(0, 0, self.body))  # whatever the seq
 
     def describe(self) -> str:
-        seq = f"seq {self.seq}" if self.seq else "(not sent: the board's RX buffer was full)"
+        seq = (
+            f"seq {self.seq}"
+            if self.seq
+            else "(not sent again: the copies sent before, unanswered, may still fill the "
+            "board's RX buffer)"
+        )
         if self.name == "SAMPLE":  # its index leads the body
             return f"SAMPLE {seq} (sample {int.from_bytes(self.body[:2], 'little')})"
         return f"{self.name} {seq}"
@@ -427,6 +432,7 @@ class Link:
         self, pending: deque[_Pending], last_reply_at: float, retries: int | None
     ) -> Reply:
         retries = self.retries if retries is None else retries
+        started = time.perf_counter()
         for attempt in range(retries + 1):
             try:
                 reply = self._await(pending[0], pending, last_reply_at)
@@ -434,9 +440,14 @@ class Link:
                 return reply
             except (BoardReset, BoardError):
                 raise
-            except LinkError:
+            except LinkError as exc:
                 if attempt == retries or any(p.name not in _RETRYABLE for p in pending):
-                    raise
+                    if not attempt:
+                        raise
+                    waited = time.perf_counter() - started
+                    raise type(exc)(
+                        f"{exc}, the last of {attempt + 1} tries over {waited:.1f} s"
+                    ) from None
             self.retried += 1
             time.sleep(min(_RETRY_BACKOFF_S[0] * 2**attempt, _RETRY_BACKOFF_S[1]))
             for p in pending:  # go back N: each goes again, under a new seq, as room allows
@@ -486,7 +497,8 @@ class Link:
             f"no reply to {request.describe()} within {self.timeout_s:.2f} s "
             f"({len(pending) - 1} more requests in flight, "
             f"{self.decoder.bad_frames} bad frames seen"
-            f"{': ' + self.decoder.last_error if self.decoder.last_error else ''})"
+            f"{': ' + self.decoder.last_error if self.decoder.last_error else ''}; "
+            "a board slower to answer needs a longer --timeout)"
         )
 
     def request(self, name: str, *, retries: int | None = None, **fields: Any) -> Reply:

@@ -1,0 +1,26 @@
+"""The link's errors: what a board that stops answering is told with."""
+
+import os
+
+import pytest
+import serial
+
+from vehil.errors import BoardTimeout
+from vehil.link import Link
+
+
+def test_a_board_that_never_answers_is_named_with_the_tries_and_time_spent() -> None:
+    host, board = os.openpty()  # a port whose far end reads nothing and answers nothing
+    port = serial.Serial(os.ttyname(board), timeout=0.01)
+    try:
+        link = Link(port, timeout_s=0.05, retries=2)
+        with pytest.raises(BoardTimeout) as exc:
+            link.request("CONFIG", estimator=0, mode=0, offset=0, params=b"\0" * 40)
+    finally:
+        port.close()
+        os.close(host)
+        os.close(board)
+    said = str(exc.value)
+    assert said.startswith("no reply to CONFIG (not sent again: the copies sent before, unanswered")
+    assert "a board slower to answer needs a longer --timeout" in said
+    assert ", the last of 3 tries over" in said
