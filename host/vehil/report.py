@@ -99,7 +99,25 @@ def _tolerance(tol: Tolerance, ref: str) -> str:
     return f"{tol.abs:g} + {tol.rel:g}·{ref}{since}"
 
 
-def _plots(s: Series, out: Path, every: int = 1) -> list[tuple[str, str]]:
+def _output_plot(name: str) -> tuple[str, str]:
+    return f"{name}: estimate vs reference vs truth, and errors", f"{name}.png"
+
+
+def _histograms(s: Series) -> list[tuple[str, np.ndarray, str, str]]:
+    """What, the data, its axis label and the file: those a run has data for."""
+    hists = [
+        ("cycles per step", s.cycles, "cycles", "cycles.png"),
+        ("round trip (host clock)", s.rtt_s * 1e3, "ms", "latency.png"),
+    ]
+    return [h for h in hists if len(h[1])]
+
+
+def _plot_names(s: Series) -> list[tuple[str, str]]:
+    """Caption and file of each plot `_plots` draws, in order."""
+    return [_output_plot(n) for n in s.names] + [(h[0], h[3]) for h in _histograms(s)]
+
+
+def _plots(s: Series, out: Path, every: int = 1) -> None:
     """`every`: the series keeps every that many samples of the run (a long run's plots
     are drawn from a bounded number of points; histograms count each kept one that often)."""
     import matplotlib
@@ -107,7 +125,6 @@ def _plots(s: Series, out: Path, every: int = 1) -> list[tuple[str, str]]:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    made = []
     n = len(s.board)
     t = s.t[:n]
     for j, name in enumerate(s.names):
@@ -140,16 +157,9 @@ def _plots(s: Series, out: Path, every: int = 1) -> list[tuple[str, str]]:
             a.grid(alpha=0.3)
         axes[-1].set_xlabel("t [s]")
         fig.tight_layout()
-        file = f"{name}.png"
-        fig.savefig(out / file, dpi=110)
+        fig.savefig(out / _output_plot(name)[1], dpi=110)
         plt.close(fig)
-        made.append((f"{name}: estimate vs reference vs truth, and errors", file))
-    for what, data, xlabel, file in (
-        ("cycles per step", s.cycles, "cycles", "cycles.png"),
-        ("round trip (host clock)", s.rtt_s * 1e3, "ms", "latency.png"),
-    ):
-        if not len(data):
-            continue
+    for what, data, xlabel, file in _histograms(s):
         fig, ax = plt.subplots(figsize=(7, 3.5))
         ax.hist(data, bins=60, color="tab:purple", weights=np.full(len(data), every))
         ax.set_xlabel(xlabel)
@@ -159,8 +169,6 @@ def _plots(s: Series, out: Path, every: int = 1) -> list[tuple[str, str]]:
         fig.tight_layout()
         fig.savefig(out / file, dpi=110)
         plt.close(fig)
-        made.append((what, file))
-    return made
 
 
 PLOT_POINTS = 20_000  # samples a run's plots are drawn from, at most
@@ -211,7 +219,7 @@ def write(s: Series, figures: Figures, context: dict[str, Any], out: Path, every
     out.mkdir(parents=True, exist_ok=True)
     data = {**context, **figures.to_json()}
     (out / "figures.json").write_text(json.dumps(data, indent=2, default=str))
-    plots = _plots(s, out, every)
+    plots = _plot_names(s)
     lines = [f"# {context.get('title', 'vehil run')}", "", _overall(figures), ""]
     for k in (
         "scenario",
@@ -248,7 +256,8 @@ def write(s: Series, figures: Figures, context: dict[str, Any], out: Path, every
     for caption, file in plots:
         lines += [f"## {caption}", "", f"![{caption}]({file})", ""]
     md = out / "report.md"
-    md.write_text("\n".join(lines))
+    md.write_text("\n".join(lines))  # before the plots: the slow part, which Ctrl-C may cut
+    _plots(s, out, every)
     return md
 
 

@@ -188,6 +188,12 @@ def native_mismatches(scenario: Scenario, recording: Path, samples: int) -> dict
     return counts
 
 
+def _stopped_by(exc: KeyboardInterrupt) -> tuple[int, str]:
+    """The signal that stopped a run (Ctrl-C's, or Terminated's), and its name for a user."""
+    number = getattr(exc, "signum", signal.SIGINT)
+    return number, "Ctrl-C" if number == signal.SIGINT else signal.Signals(number).name
+
+
 def default_recording_path(scenario: Scenario, board: str, root: Path | None = None) -> Path:
     root = root or runs_dir()
     stamp = datetime.now(UTC).strftime("%Y%m%dT%H%M%SZ")
@@ -351,12 +357,8 @@ def run(
             if stats["stack_size"]:
                 stack_bytes = stats["stack_size"] - stats["stack_unused"]
     except KeyboardInterrupt as exc:
-        stop_signal = getattr(exc, "signum", signal.SIGINT)
-        by = "Ctrl-C" if stop_signal == signal.SIGINT else signal.Signals(stop_signal).name
-        ended, error = (
-            "interrupted",
-            f"stopped by {by} after {done:,} of {src.total:,} samples",
-        )
+        stop_signal, by = _stopped_by(exc)
+        ended, error = "interrupted", f"stopped by {by} after {done:,} of {src.total:,} samples"
     except VehilError as exc:
         if sink is None and isinstance(exc, BoardStartError):
             raise  # no board, no run: an error, not a failed run's report
@@ -386,7 +388,16 @@ def run(
     )
     mismatches = None
     if needs_native and board_name != "native" and done:
-        mismatches = native_mismatches(scenario, path, done)
+        try:
+            mismatches = native_mismatches(scenario, path, done)
+        except KeyboardInterrupt as exc:  # the samples are in: judge them, bits unchecked
+            stop_signal, by = _stopped_by(exc)
+            if ended == "completed":
+                ended = "interrupted"
+                error = (
+                    f"stopped by {by} while the board's bits were checked against the "
+                    f"native build, after all {done:,} samples: bits not checked"
+                )
     figures = metrics.figures(
         ended=ended,
         error=error,

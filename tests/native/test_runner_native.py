@@ -104,3 +104,27 @@ def test_a_recording_keeps_the_scenarios_score_from_s(tmp_path) -> None:  # noqa
     whole = compare.evaluate(dataclasses.replace(recorded, score_from_s=0.0)).outputs["v"].truth
     assert fresh == read.outputs["v"].truth and fresh.from_s == 1.0
     assert fresh.rmse < whole.rmse and fresh.worst_k >= 100
+
+
+def test_ctrl_c_while_the_bits_are_checked_leaves_the_run_judged_interrupted(
+    built,  # noqa: ANN001
+    tmp_path,  # noqa: ANN001
+    monkeypatch,  # noqa: ANN001
+) -> None:
+    from vehil.boards.native import NativeBoard
+
+    class ABoard(NativeBoard):  # a board whose bits are checked against the native build's
+        name = "a-board"
+
+    def ctrl_c(*_: object) -> dict[str, int]:
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(runner, "native_mismatches", ctrl_c)
+    sc = dataclasses.replace(scenario.load("braking/manf-hard-stop-fixed"), duration=0.05)
+    run = runner.run(sc, ABoard(), recording=tmp_path / "run.arrow")
+    assert run.done == 50 and len(record.read(tmp_path / "run.arrow")) == 50
+    verdict = run.figures.verdict
+    assert verdict.word == "INTERRUPTED" and verdict.exit_status == 130
+    assert "while the board's bits were checked" in verdict.reason
+    assert "bits not checked" in verdict.reason
+    assert run.figures.outputs["v"].bit_exact.passed is None  # n/a, not a pass
