@@ -115,6 +115,8 @@ void on_uart_output(avr_irq_t *irq, uint32_t value, void *param);
 void on_uart_xon(avr_irq_t *irq, uint32_t value, void *param);
 void on_uart_xoff(avr_irq_t *irq, uint32_t value, void *param);
 void feed_uart(void);
+int rx_take(void);
+void rx_started(void);
 int rx_pending(void);
 int input_wakes(void);
 
@@ -148,6 +150,7 @@ void watch_pty_opens(const char *ptyname);
 
 /* uart_timing.c */
 int uart_timing_setup(avr_t *avr, avr_uart_t *uart);
+void uart_timing_rx_start(avr_t *avr);
 
 /* vcd_trace.c */
 enum { SIG_TX, SIG_TX_STB, SIG_RX, SIG_RX_STB, SIG_XOFF, SIG_SLEEP, SIG_COUNT };

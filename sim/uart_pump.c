@@ -166,15 +166,20 @@ static int uart_rx_enabled(void)
 	return g_uart ? avr_regbit_get(g_avr, g_uart->rxen) : 1;
 }
 
-/* Moves ring bytes into the UART while it wants them. */
+/* Moves ring bytes into the UART while it wants them: with the chip's timing
+ * (uart_timing.c), one a frame as its receiver takes them (rx_take). */
 void feed_uart(void)
 {
 	if (!uart_rx_enabled())
 		return;		/* simavr silently drops bytes while RXEN=0 */
-	size_t tail = atomic_load_explicit(&rx_tail, memory_order_relaxed);
-	size_t head = atomic_load_explicit(&rx_head, memory_order_acquire);
 	if (atomic_load(&g_reset_request))
 		return;		/* a new client's bytes are for the chip after its reset */
+	if (!opt.simavr_uart) {
+		uart_timing_rx_start(g_avr);
+		return;
+	}
+	size_t tail = atomic_load_explicit(&rx_tail, memory_order_relaxed);
+	size_t head = atomic_load_explicit(&rx_head, memory_order_acquire);
 	size_t first = tail;
 	while (tail != head && !g_uart_xoff) {
 		uint8_t b = rx_ring[tail % RX_RING_SIZE];
@@ -185,6 +190,30 @@ void feed_uart(void)
 	atomic_store_explicit(&rx_tail, tail, memory_order_release);
 	if (g_timing && tail != first)
 		timing_in(tail - first);
+}
+
+/* The next byte for the UART, or -1 if there is none (or a reset is due first). */
+int rx_take(void)
+{
+	size_t tail = atomic_load_explicit(&rx_tail, memory_order_relaxed);
+	if (tail == atomic_load_explicit(&rx_head, memory_order_acquire) || atomic_load(&g_reset_request))
+		return -1;
+	uint8_t b = rx_ring[tail % RX_RING_SIZE];
+	atomic_store_explicit(&rx_tail, tail + 1, memory_order_release);
+	in_last_cycle = g_avr->cycle;
+	return b;
+}
+
+/* --timing: a byte starts in; the bytes the client had sent by then, from this one on,
+ * are one `in` line, unless an earlier line counted this byte already. */
+void rx_started(void)
+{
+	static size_t logged;	/* ring index up to which `in` lines counted the bytes */
+	size_t tail = atomic_load_explicit(&rx_tail, memory_order_relaxed);
+	if (!g_timing || tail < logged)
+		return;
+	logged = atomic_load_explicit(&rx_head, memory_order_acquire);
+	timing_in(logged - tail);
 }
 
 int rx_pending(void)

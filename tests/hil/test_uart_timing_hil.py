@@ -110,3 +110,30 @@ def test_bytes_leave_back_to_back_at_2_mbaud(built, tmp_path) -> None:
     # most of them (simavr's own transmitter: none, each byte 11 bits and a response late);
     # how many depends on how the firmware releases a reply's bytes
     assert len(back_to_back) >= 0.5 * len(gaps)
+
+
+def test_bytes_arrive_no_faster_than_the_line_at_2_mbaud(built, tmp_path) -> None:
+    """A burst of requests written at once reaches the firmware one 10-bit frame a byte, as
+    bytes sent back to back would on the wire: over any 24 bytes of it, the firmware reads
+    the last no sooner than 21 frames after the first (it may read up to three the
+    receiver holds at once). simavr's own receiver queues what the client sent and lets
+    the firmware read two a frame time: 26-byte requests came in within ~1,300 cycles,
+    0.6 of a frame a byte. The firmware keeps up: no byte lost."""
+    baud, n, span = 2_000_000, 8, 24
+    frame_ns = BITS_PER_BYTE * 1e9 / baud
+    late_ns = 5e9 / F_CPU  # a timestamp is the first instruction boundary after its event
+    vcd = tmp_path / "uart.vcd"
+    with open_board("simavr", BoardOptions(timeout_s=5.0), SimavrOptions(vcd=vcd)) as link:
+        link.set_baud(baud)
+        before = link.stats()
+        with link.corked():  # the burst in one write
+            pings = (("PING", {"payload": bytes([1 + i]) * 16}) for i in range(n))
+            assert len(list(link.pipeline(pings, window=n))) == n
+        after = link.stats()
+    received = uart_bytes(vcd)[1]
+    burst = [b.t_ns for f in frames(received)[-n - 1 : -1] for b in f]  # before GET_STATS
+    assert len(burst) >= n * len(frame.encode(0x02, 1, bytes(16)))
+    spans = [burst[i + span] - burst[i] for i in range(len(burst) - span)]
+    print(f"\n{span} bytes in at least {min(spans) / frame_ns:.2f} frames")
+    assert min(spans) >= (span - 3) * frame_ns - late_ns
+    assert after["overruns"] == before["overruns"]
