@@ -125,24 +125,27 @@ def board_cost_point(link: Link, size: int, bursts: int = BURSTS, bits: int = 10
     Bursts of as many PINGs as the board's RX buffer holds, in one write (Link.corked: a
     burst packed request by request reached simavr in pieces, by the host's pace, and the
     figure moved by 25 % from run to run): their bytes come in back to back at the line
-    rate, as when the host keeps the window full, and the
-    spacing of the PONG timestamps over the burst's first half, while later requests still
-    arrive, is the board's cost: receiving, decoding and checking the request, handling
-    it, encoding and sending the reply. A stream goes no faster than its replies leave:
-    the exchange takes the board's cost or the reply's time on the wire (`bits` a byte),
-    whichever is longer, and its share of the 10-bit line rate follows from that
-    (simavr's own 11-bit bytes cap it at 10/11). The second half's spacing, every request
-    in the RX ring, is the board's cost without the receiving. Cycle-exact on simavr.
+    rate, as when the host keeps the window full. The PONG timestamps' span over the
+    burst, divided by the exchanges it holds, is the board's cost of an exchange:
+    receiving, decoding and checking the request, handling it, encoding and sending the
+    reply. (Not the median spacing: the board takes in the later requests during the
+    first exchanges, so those are slow and the rest fast; neither is a stream's.) A
+    stream goes no faster than its replies leave: the exchange takes the board's cost or
+    the reply's time on the wire (`bits` a byte), whichever is longer, and its share of
+    the 10-bit line rate follows from that (simavr's own 11-bit bytes cap it at 10/11).
+    The second half's spacing, every request in the RX buffer, is the board's cost
+    without the receiving. Cycle-exact on simavr.
     """
     assert link.info is not None
     baud = int(link.info.fields["baud"])
     request = len(framing.encode(0, 1, bytes(size)))
     reply = len(framing.encode(0, 1, bytes(size + 4)))
-    n = link.info.rx_buffer // request
+    # no more than the link keeps in flight: a burst sent in two goes would wait for replies
+    n = min(link.info.rx_buffer // request, link.max_frames)
     if n < 3:
         raise ValueError(f"{size}-byte PINGs: fewer than three fit the board's RX buffer")
     before = link.stats()
-    arriving: list[int] = []
+    spacings: list[int] = []
     arrived: list[int] = []
     for b in range(bursts):
         payloads = [bytes([1 + (b + i) % 255]) * size for i in range(n)]
@@ -152,13 +155,13 @@ def board_cost_point(link: Link, size: int, bursts: int = BURSTS, bits: int = 10
                 for r in link.pipeline((("PING", {"payload": p}) for p in payloads), window=n)
             ]
         spacing = [(y - x) & 0xFFFFFFFF for x, y in zip(stamps, stamps[1:], strict=False)]
-        arriving += spacing[: n // 2]
+        spacings += spacing
         arrived += spacing[n // 2 :]
     after = link.stats()
     handling = (after["frame_cycles"] - before["frame_cycles"]) / max(
         1, after["rx_frames"] - before["rx_frames"]
     )
-    board = float(np.median(arriving))
+    board = float(np.mean(spacings))
     per_exchange = max(board, max(request, reply) * bits * F_CPU / baud)
     wire_cycles = max(request, reply) * 10 * F_CPU / baud  # the 10-bit line rate
     return {
