@@ -302,6 +302,7 @@ def cmd_flash(args: argparse.Namespace) -> int:
             f"give the board's port (--port /dev/ttyACM0; ports seen: {ports_seen()}) "
             "or --board simavr-bootloader"
         )
+    flash.check_target(board, args.baud)
     if args.image:
         image = Path(args.image)
         if image.suffix == ".elf":

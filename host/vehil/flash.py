@@ -231,6 +231,17 @@ def run_avrdude(
     )
 
 
+def check_target(board: Board, baud: int) -> None:
+    """What makes flashing fail whatever the image: refused before one is built."""
+    if not board.flashable:
+        raise FlashError(
+            f"the {board.name} board has no bootloader to program: flash "
+            "--board simavr-bootloader or a real board (--port PORT)"
+        )
+    check_baud(baud)
+    board.check()
+
+
 @contextlib.contextmanager
 def flashed(
     board: Board,
@@ -243,12 +254,7 @@ def flashed(
 ) -> Iterator[tuple[FlashResult, Link]]:
     """Starts the board, programs IMAGE through its bootloader, and yields what avrdude
     did with the link to the firmware it now runs (ready frame seen, INFO read)."""
-    if not board.flashable:
-        raise FlashError(
-            f"the {board.name} board has no bootloader to program: flash "
-            "--board simavr-bootloader or a real board (--port PORT)"
-        )
-    check_baud(baud)
+    check_target(board, baud)
     try:
         url = board.start()
         with board.programmer_port(url) as programmer:

@@ -89,3 +89,27 @@ def test_avrdude_reaches_sockets_but_not_other_urls() -> None:
     assert flash.avrdude_port(PORT) == PORT
     with pytest.raises(flash.FlashError):
         flash.avrdude_port("native://")
+
+
+@pytest.mark.parametrize(
+    ("args", "error"),
+    [
+        (["--port", "/dev/ttyNOSUCH9"], "no serial port /dev/ttyNOSUCH9; ports seen:"),
+        (["--port", "/dev/ttyNOSUCH9", "--baud", "57600"], "115200 baud only"),
+        (["--board", "qemu"], "the qemu board has no bootloader to program"),
+    ],
+)
+def test_vehil_flash_refuses_a_bad_target_before_building_an_image(
+    args,  # noqa: ANN001
+    error,  # noqa: ANN001
+    monkeypatch,  # noqa: ANN001
+    capsys,  # noqa: ANN001
+) -> None:
+    from vehil import cli
+
+    def build(*_: object) -> None:
+        raise AssertionError("an image was built for a target that cannot take it")
+
+    monkeypatch.setattr(flash, "firmware_hex", build)
+    assert cli.main(["flash", *args]) == 2
+    assert error in " ".join(capsys.readouterr().out.split())

@@ -80,6 +80,9 @@ class Board:
         except ValueError as exc:
             raise BoardStartError(f"--faults {self.options.faults!r}: {exc}") from None
 
+    def check(self) -> None:
+        """Refuses what can be refused before anything is built or started."""
+
     def start(self) -> str:
         """Brings the board up; returns the pyserial URL to reach it."""
         raise NotImplementedError

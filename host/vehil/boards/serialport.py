@@ -4,13 +4,14 @@ or any other pyserial URL."""
 from __future__ import annotations
 
 import contextlib
+import os
 import time
 from collections.abc import Iterator
 
 import serial
 
-from vehil.boards.base import Board, BoardOptions
-from vehil.errors import BoardTimeout
+from vehil.boards.base import Board, BoardOptions, ports_seen
+from vehil.errors import BoardTimeout, NoPort
 from vehil.link import Link
 
 
@@ -34,6 +35,10 @@ class SerialBoard(Board):
         super().__init__(options)
         self.port = port
         self.name = port
+
+    def check(self) -> None:
+        if self.port.startswith("/dev/") and not os.path.exists(self.port):
+            raise NoPort(f"no serial port {self.port}; ports seen: {ports_seen()}")
 
     def start(self) -> str:
         return self.port
