@@ -404,7 +404,9 @@ class Metrics:
             status=dict(self.flags),
             ended=ended,
             error=error,
-            verdict=_verdict(n, expected, ended, error, stop_signal, outputs, self._health()),
+            verdict=_verdict(
+                n, expected, ended, error, stop_signal, outputs, self._health(), self.late
+            ),
         )
 
     def _health(self) -> tuple[dict[str, int], str | None]:
@@ -433,6 +435,7 @@ def _verdict(
     stop_signal: int | None,
     outputs: dict[str, OutputFigures],
     health: tuple[dict[str, int], str | None],
+    late: int = 0,
 ) -> Verdict:
     of = f"{n:,} of {expected:,}" if expected is not None else f"{n:,}"
     if ended == "interrupted":
@@ -447,6 +450,8 @@ def _verdict(
         return Verdict("NOT CHECKED", "no samples", EXIT_FAIL)
     raised, unhealthy = health
     shown = "; flags: " + ", ".join(f"{k} x{v:,}" for k, v in raised.items()) if raised else ""
+    if late:  # real time: results that came after the next sample was due
+        shown += f"; {late:,} late"
     failed = {name: o.failed() for name, o in outputs.items() if o.passed is False}
     if failed:
         where = "; ".join(f"{name} ({', '.join(checks)})" for name, checks in failed.items())

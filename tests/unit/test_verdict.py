@@ -1,6 +1,7 @@
 """One verdict, computed once: every check says whether it ran, and a run that did not
 complete, or checked nothing, never reads PASS in the console, report.md or figures.json."""
 
+import dataclasses
 import json
 import signal
 
@@ -213,3 +214,12 @@ def test_a_multi_line_error_stays_inside_report_md_s_bullet_and_verdict(tmp_path
     assert lines[2] == f"Overall: **FAILED**: {error.replace(chr(10), '; ')}"
     assert "- **error**: board lost after 5 of 100 samples: no reply" in lines
     assert "  simavr was killed by SIGKILL" in lines  # the bullet's own continuation
+
+
+def test_a_real_time_run_s_late_results_are_in_its_verdict() -> None:
+    late = np.zeros(20, dtype=bool)
+    late[[3, 7, 11]] = True
+    s = series(np.ones(20), np.ones(20), {"y": Tolerance(abs=0.1)}, expected=20)
+    figures = compare.evaluate(dataclasses.replace(s, late=late))
+    assert str(figures.verdict) == "PASS: 20 of 20 samples checked; 3 late"
+    assert str(compare.evaluate(s).verdict) == "PASS: 20 of 20 samples checked"
