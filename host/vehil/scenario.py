@@ -7,6 +7,7 @@ fails before a board is started.
 
 from __future__ import annotations
 
+import difflib
 import math
 import tomllib
 from dataclasses import dataclass, field
@@ -495,8 +496,13 @@ def find(name_or_path: str | Path) -> Path:
         if matches:
             listed = ", ".join(str(m.relative_to(folder)) for m in matches)
             raise ScenarioError(f"{name_or_path!r} is ambiguous: {listed}; give the path")
+    names = {scenario_name(p): p for p in shipped()}
+    by_stem = {p.stem: name for name, p in names.items()}
+    close = difflib.get_close_matches(str(name_or_path), [*names, *by_stem], n=3)
+    like = list(dict.fromkeys(by_stem.get(c, c) for c in close))
+    hint = f" (did you mean {', '.join(like)}?)" if like else ""
     raise ScenarioError(
-        f"no scenario {name_or_path!r}: give a .toml path or a name from `vehil scenarios`"
+        f"no scenario {name_or_path!r}{hint}: give a .toml path or a name from `vehil scenarios`"
     )
 
 

@@ -43,7 +43,8 @@ class Param(Signal):
 
     def check(self, value: float) -> str | None:
         if not math.isfinite(value) or not self.lo <= value <= self.hi:
-            return f"{self.name} = {value:g} {self.unit} is outside [{self.lo:g}, {self.hi:g}]"
+            unit = "" if self.unit in ("", "1") else f" {self.unit}"
+            return f"{self.name} = {value:g}{unit} is outside [{self.lo:g}, {self.hi:g}]{unit}"
         return None
 
 

@@ -46,7 +46,7 @@ def test_a_good_scenario_loads_with_defaults_filled_in() -> None:
         ),
         (
             lambda d: d["plant"].update(amplitude=-1),
-            r"plant: amplitude = -1 1 is outside \[0, 1000\]",
+            r"plant: amplitude = -1 is outside \[0, 1000\]",
         ),
         (lambda d: d["plant"].update(wheels=4), r"plant: plant noisy_sine has no parameter wheels"),
         (lambda d: d["tolerance"].update(v={"abs": 1}), r"tolerance.v: no output of that name"),
@@ -101,6 +101,12 @@ def test_a_scenario_is_found_by_name_or_refused_with_a_hint() -> None:
     assert scenario.find("sine").name == "sine.toml"
     with pytest.raises(ScenarioError, match="vehil scenarios"):
         scenario.find("no-such-scenario")
+    with pytest.raises(
+        ScenarioError, match=r"no scenario 'sien' \(did you mean synthetic/sine\?\)"
+    ):
+        scenario.find("sien")
+    with pytest.raises(ScenarioError, match=r"\(did you mean braking/manf-hard-stop-fixed, "):
+        scenario.find("braking/manf-hrd-stop-fixed")
 
 
 def test_a_tolerance_from_a_time_on_leaves_the_start_unchecked() -> None:
