@@ -9,6 +9,7 @@ import os
 import random
 import struct
 import threading
+import time
 
 import pytest
 
@@ -51,6 +52,20 @@ def test_ten_thousand_pings_of_random_sizes_are_all_echoed(link) -> None:
     assert len(summary.rtt_s) == count  # run_ping raises on any loss or wrong echo
     stats = link.stats()
     assert (stats["crc_errors"], stats["cobs_errors"], stats["overruns"]) == (0, 0, 0)
+
+
+def test_the_boards_clock_counts_on_past_every_timer_overflow(link) -> None:
+    """Timer1 and its overflow count (cycles.h, both in assembly): PONG timestamps rise
+    across 16-bit overflows and the count's carry into its high byte at 2**24 cycles."""
+    if link.board_name != "simavr":
+        pytest.skip("QEMU's emulated timer may step back (dispatch.c's steps read it as 0)")
+    stamps = [link.request("PING", payload=b"").fields()["timestamp"]]
+    target = (stamps[0] // 2**24 + 1) * 2**24 + 2**17  # past the next carry
+    deadline = time.monotonic() + 30  # simavr runs the idle board ~1 s of its time in < 5 s
+    while stamps[-1] < target and time.monotonic() < deadline:
+        stamps.append(link.request("PING", payload=b"").fields()["timestamp"])
+    steps = [b - a for a, b in zip(stamps, stamps[1:], strict=False)]
+    assert stamps[-1] >= target and min(steps) > 0
 
 
 def test_config_with_a_bad_estimator_id_is_an_error_and_the_link_goes_on(link) -> None:

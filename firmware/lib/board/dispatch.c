@@ -56,20 +56,22 @@ static inline uint32_t stopwatch_read(const stopwatch_t *w)
     return port_cycles() - w->start - irq;
 }
 
-/* A 32-bit count kept as two halves: the low one alone changes unless it wraps, half
- * the instructions of a 32-bit increment on the AVR (every exchange counts twice). */
+/* A 32-bit count kept as its low byte and the rest: the low byte alone changes unless
+ * it wraps, a quarter of the instructions of a 32-bit increment on the AVR (every
+ * exchange counts twice). */
 typedef struct {
-    uint16_t low, high;
+    uint8_t low;
+    uint32_t rest;
 } count_t;
 
 static inline void count_up(count_t *c)
 {
     if (++c->low == 0u) {
-        c->high++;
+        c->rest++;
     }
 }
 
-static inline uint32_t count_value(const count_t *c) { return ((uint32_t)c->high << 16) | c->low; }
+static inline uint32_t count_value(const count_t *c) { return (c->rest << 8) | c->low; }
 
 static struct {
     frame_rx_t rx; /* the request being received, decoded and checked byte by byte */
