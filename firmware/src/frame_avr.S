@@ -4,16 +4,18 @@
 ;
 ; Where the UART's interrupts would cost more than a byte's time (uart.h,
 ; uart_frame_polled), both run a variant of their loop with interrupts off that
-; serves the UART itself between bytes (UART_POLL); elsewhere the interrupts do, and
-; the loops pay nothing for it.
+; serves the UART itself between bytes (UART_POLL, uart_serve.inc: the rings' indices
+; in registers for the call); elsewhere the interrupts do, and the loops pay nothing
+; for it.
 ;
 ; uint8_t frame_rx_run(uint32_t *crc, uint8_t *dst, const uint8_t *src, uint8_t k)
 ; copies up to k bytes of a COBS block's data from the RX ring into the frame, up
-; to a zero, running the CRC over them; returns how many it took (~30 cycles a
-; byte and the service point, ~41 in C).
+; to a zero, running the CRC over them; returns how many it took (30 cycles a byte,
+; 34 with the polled variant's service point, ~41 in C).
 ;
 ; frame_tx_run() puts bytes of a frame into the UART's TX ring, COBS-encoded, with
-; the CRC run over them on the way (~37 cycles a byte and the service point, ~49 in C).
+; the CRC run over them on the way (36 cycles a byte, 40 with the polled variant's
+; service point, ~49 in C).
 ;
 ; uint8_t frame_tx_run(uint32_t *crc, uint8_t code, const uint8_t *data, uint8_t n)
 ; returns the COBS code of the block so far (1 + its bytes). A zero byte ends the
@@ -57,53 +59,12 @@
         lpm     CRC3, Z
 .endm
 
-; A service point of a loop's polled variant (interrupts off): to \stub if a byte is
-; in or UDR0 can take a released one (each status bit of UCSR0A where its interrupt's
-; enable is in UCSR0B: what would raise the interrupt), which serves them
-; (SERVE_STUB) and comes back to \back; 8 cycles when there is nothing to do. Uses Z
-; and the flags, and r0 if it serves.
-.macro UART_POLL stub, back
-        lds     r30, _SFR_MEM_ADDR(UCSR0A)
-        lds     r31, _SFR_MEM_ADDR(UCSR0B)
-        and     r30, r31
-        andi    r30, _BV(RXC0) | _BV(UDRE0)
-        breq    \back
-        rjmp    \stub
-\back:
-.endm
-
-; A service point's work, out of its loop (uart_serve.inc), then back. UART_SERVE
-; moves its byte through r0: where r0 holds the loop's byte, \keep saves it.
-.macro SERVE_STUB stub, back, keep=0
-\stub:
-.if \keep
-        push    r0
-.endif
-        UART_SERVE
-.if \keep
-        pop     r0
-.endif
-        rjmp    \back
-.endm
-
 ; To \polled, the polled variant, if the frame loops serve the UART
 ; (uart_frame_polled). Uses r0.
 .macro IF_POLLED polled
         lds     r0, uart_frame_polled
         sbrc    r0, 0
         rjmp    \polled
-.endm
-
-; The polled variant's start and end: interrupts off, then SREG as it was.
-.macro POLLED_BEGIN
-        in      r0, _SFR_IO_ADDR(SREG)
-        push    r0
-        cli
-.endm
-
-.macro POLLED_END
-        pop     r0
-        out     _SFR_IO_ADDR(SREG), r0
 .endm
 
         .section .text.frame_rx_run, "ax", @progbits
@@ -232,9 +193,11 @@ zero:   TX_ZERO
         rjmp    count
 
 ; The loop above with a service point a byte and in the wait for room (where r0 holds
-; the byte to store).
+; the byte to store: that stub moves its bytes through ROOM, which the wait recomputes).
 tx_polled:
         POLLED_BEGIN
+        rjmp    p_next
+        SERVE_STUB tx_serve, tx_served  ; here: in reach of the loop's branches
 p_next: UART_POLL tx_serve, tx_served
         ld      BYTE, X+
         CRC32C_BYTE
@@ -247,16 +210,25 @@ p_count: dec    N
         rjmp    done
 
 p_wait: UART_POLL wait_serve, wait_served
-        rcall   room
+        mov     ROOM, SV_TXT            ; the room, as room does
+        sub     ROOM, W
+        dec     ROOM
         subi    ROOM, 1
         brcs    p_wait
         rjmp    p_store
 
-p_zero: TX_ZERO
+; TX_ZERO with the ring's head and the UDRE interrupt's enable in registers.
+p_zero: st      Z, BYTE
+        lds     r30, uart_tx_held
+        sts     uart_tx_held, W
+        st      Z, CODE
+        mov     SV_TXH, W
+        ori     SV_MASK, _BV(UDRE0)
+        inc     W
+        ldi     CODE, 1
         rjmp    p_count
 
-        SERVE_STUB tx_serve, tx_served
-        SERVE_STUB wait_serve, wait_served, 1
+        SERVE_STUB wait_serve, wait_served, ROOM
 
 ; uint8_t frame_tx_crc(uint32_t crc, uint8_t code) puts the CRC's four bytes, low first,
 ; into the TX ring, COBS-encoded as frame_tx_run's bytes are but not run through the
