@@ -146,6 +146,62 @@ rx_polled:
         ldi     CODE, 1
 .endm
 
+; TX_ZERO in a polled variant: the ring's head and the UDRE interrupt's enable are in
+; registers (uart_serve.inc), and the interrupts are off.
+.macro TX_ZERO_POLLED
+        st      Z, BYTE
+        lds     r30, uart_tx_held
+        sts     uart_tx_held, W
+        st      Z, CODE
+        mov     SV_TXH, W
+        ori     SV_MASK, _BV(UDRE0)
+        inc     W
+        ldi     CODE, 1
+.endm
+
+; Pieces of frame_tx_frame's two variants (and frame_tx_crc's CRC_OUT_BYTE): to \wait unless ROOM holds the
+; frame (n + 6 slots); the placeholder; the CRC inverted (CRC32C_XOROUT); its next byte
+; into BYTE; the delimiter and the last block's code.
+.macro FRAME_FITS wait
+        subi    ROOM, 6
+        brcs    \wait
+        cp      ROOM, N
+        brcs    \wait
+.endm
+
+.macro TX_PLACEHOLDER
+        sts     uart_tx_held, W
+        mov     r30, W
+        ldi     r31, hi8(uart_tx_buf)
+        st      Z, r1
+        inc     W
+        ldi     CODE, 1
+.endm
+
+.macro CRC_XOROUT
+        com     CRC0
+        com     CRC1
+        com     CRC2
+        com     CRC3
+.endm
+
+.macro CRC_OUT_BYTE
+        mov     BYTE, CRC0
+        mov     CRC0, CRC1
+        mov     CRC1, CRC2
+        mov     CRC2, CRC3
+.endm
+
+.macro TX_DELIMIT
+        mov     r30, W                  ; the delimiter, released with the last block
+        ldi     r31, hi8(uart_tx_buf)
+        st      Z, r1
+        inc     W
+        lds     r30, uart_tx_held       ; the last block's code
+        st      Z, CODE
+        sts     uart_tx_write, W
+.endm
+
         .section .text.frame_tx_run, "ax", @progbits
         .global frame_tx_run
 frame_tx_run:
@@ -217,15 +273,7 @@ p_wait: UART_POLL wait_serve, wait_served
         brcs    p_wait
         rjmp    p_store
 
-; TX_ZERO with the ring's head and the UDRE interrupt's enable in registers.
-p_zero: st      Z, BYTE
-        lds     r30, uart_tx_held
-        sts     uart_tx_held, W
-        st      Z, CODE
-        mov     SV_TXH, W
-        ori     SV_MASK, _BV(UDRE0)
-        inc     W
-        ldi     CODE, 1
+p_zero: TX_ZERO_POLLED
         rjmp    p_count
 
         SERVE_STUB wait_serve, wait_served, ROOM
@@ -242,10 +290,7 @@ frame_tx_crc:
         lds     W, uart_tx_write
         rcall   room
         ldi     N, 4
-c_next: mov     BYTE, CRC0
-        mov     CRC0, CRC1
-        mov     CRC1, CRC2
-        mov     CRC2, CRC3
+c_next: CRC_OUT_BYTE
         subi    ROOM, 1
         brcs    c_wait
 c_store: TX_STORE c_zero
@@ -262,6 +307,104 @@ c_wait: rcall   room
 
 c_zero: TX_ZERO
         rjmp    c_count
+
+; void frame_tx_frame(uint8_t answers, const uint8_t *data, uint8_t n): a whole frame
+; whose header and body lie in data, as proto/frame.c's C (frame_tx_frame's twin) sends
+; it: the placeholder, the bytes, the CRC's, the delimiter, released, in one call. It
+; waits once for the ring to hold the whole frame (n + 6 slots: the placeholder, a slot
+; a byte or its zero, the CRC's four, the delimiter), so its bytes go in unchecked.
+; Where the frame loops serve the UART (uart_frame_polled), the service points run
+; throughout: no C and no interrupt from the first byte to the release.
+        .section .text.frame_tx_frame, "ax", @progbits
+        .global frame_tx_frame
+frame_tx_frame:
+        movw    r26, r22                ; X: the data
+        mov     N, r20
+        mov     BYTE, r24               ; the CRC starts over the answered type
+        ldi     CRC0, 0xFF
+        ldi     CRC1, 0xFF
+        ldi     CRC2, 0xFF
+        ldi     CRC3, 0xFF
+        CRC32C_BYTE
+        IF_POLLED f_polled
+        lds     W, uart_tx_write
+g_room: rcall   room
+        FRAME_FITS g_room
+        TX_PLACEHOLDER
+        tst     N
+        breq    g_crc
+g_next: ld      BYTE, X+
+        CRC32C_BYTE
+        TX_STORE g_zero
+g_count: dec    N
+        brne    g_next
+g_crc:  CRC_XOROUT
+        ldi     N, 4
+g_cnext: CRC_OUT_BYTE
+        TX_STORE g_czero
+g_ccount: dec   N
+        brne    g_cnext
+        TX_DELIMIT                      ; and out, as uart_tx_close()
+        in      r31, _SFR_IO_ADDR(SREG)
+        cli
+        sts     uart_tx_head, W
+        lds     r30, _SFR_MEM_ADDR(UCSR0A)
+        ori     r30, _BV(TXC0)          ; writing 1 clears it: "these bytes are out"
+        sts     _SFR_MEM_ADDR(UCSR0A), r30
+        ldi     r30, UART_UCSR0B_ON | (1 << UDRIE0)
+        sts     _SFR_MEM_ADDR(UCSR0B), r30
+        out     _SFR_IO_ADDR(SREG), r31
+        ret
+g_zero: TX_ZERO
+        rjmp    g_count
+g_czero: TX_ZERO
+        rjmp    g_ccount
+
+; The same with a service point a byte, interrupts off.
+f_polled:
+        POLLED_BEGIN
+        rjmp    f_room
+        SERVE_STUB f_rserve, f_rserved  ; each stub in reach of the branch to it
+f_room: UART_POLL f_rserve, f_rserved
+        lds     W, uart_tx_write
+        mov     ROOM, SV_TXT
+        sub     ROOM, W
+        dec     ROOM
+        FRAME_FITS f_room
+        TX_PLACEHOLDER
+        rjmp    f_first
+        SERVE_STUB f_serve, f_served
+f_next: UART_POLL f_serve, f_served
+        ld      BYTE, X+
+        CRC32C_BYTE
+        TX_STORE f_zero
+f_count: dec    N
+        brne    f_next
+        rjmp    f_crc
+f_zero: TX_ZERO_POLLED
+        rjmp    f_count
+f_first: tst    N
+        brne    f_next
+f_crc:  CRC_XOROUT
+        ldi     N, 4
+        rjmp    f_cnext
+        SERVE_STUB f_cserve, f_cserved
+f_cnext: UART_POLL f_cserve, f_cserved
+        CRC_OUT_BYTE
+        TX_STORE f_czero
+f_ccount: dec   N
+        brne    f_cnext
+        rjmp    f_end
+f_czero: TX_ZERO_POLLED
+        rjmp    f_ccount
+f_end:  TX_DELIMIT                      ; and out, as uart_tx_close()
+        mov     SV_TXH, W
+        ori     SV_MASK, _BV(UDRE0)
+        lds     r30, _SFR_MEM_ADDR(UCSR0A)
+        ori     r30, _BV(TXC0)          ; writing 1 clears it: "these bytes are out"
+        sts     _SFR_MEM_ADDR(UCSR0A), r30
+        POLLED_END
+        ret
 
 ; ROOM = tail - W - 1: the bytes that fit before the ring is full.
 room:   lds     ROOM, uart_tx_tail

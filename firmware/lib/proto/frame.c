@@ -179,17 +179,29 @@ void frame_tx_begin(frame_tx_t *tx, uint8_t answers, uint8_t type, uint16_t seq,
     frame_tx_bytes(tx, header, sizeof header);
 }
 
+#if defined(__AVR__)
+/* firmware/src/frame_avr.S: tx_open(), frame_tx_bytes() and frame_tx_end() below, in
+ * one call of assembly. */
+void frame_tx_frame(uint8_t answers, const uint8_t *data, uint8_t n);
+#else
+/* A whole frame whose header and body lie in one buffer. */
+static void frame_tx_frame(uint8_t answers, const uint8_t *data, uint8_t n)
+{
+    frame_tx_t tx;
+    tx_open(&tx, answers);
+    frame_tx_bytes(&tx, data, n);
+    frame_tx_end(&tx);
+}
+#endif
+
 /* lead, then raw: one buffer. */
 typedef char frame_lead_before_raw
     [offsetof(frame_rx_t, raw) == offsetof(frame_rx_t, lead) + FRAME_HEADER_SIZE ? 1 : -1];
 
 void frame_tx_echo(frame_rx_t *rx, uint8_t answers, uint8_t type, uint16_t seq, uint8_t body_len)
 {
-    frame_tx_t tx;
     header_pack(rx->lead, type, seq, (uint8_t)(FRAME_HEADER_SIZE + body_len));
-    tx_open(&tx, answers);
-    frame_tx_bytes(&tx, rx->lead, (uint8_t)(2u * FRAME_HEADER_SIZE + body_len));
-    frame_tx_end(&tx);
+    frame_tx_frame(answers, rx->lead, (uint8_t)(2u * FRAME_HEADER_SIZE + body_len));
 }
 
 void frame_tx_bytes(frame_tx_t *tx, const uint8_t *data, uint8_t n)
@@ -219,3 +231,4 @@ void frame_tx_end(frame_tx_t *tx)
     port_tx_put(0); /* the delimiter, released with the last block */
     port_tx_close(code);
 }
+
