@@ -64,7 +64,9 @@ def _add_board_options(p: argparse.ArgumentParser, default: str = DEFAULT_BOARD)
         default=None,
         help="switch the link to this baud rate after connecting (the firmware boots at 1000000)",
     )
-    p.add_argument("--timeout", type=float, default=2.0, help="seconds to wait for each reply")
+    p.add_argument(
+        "--timeout", type=_above_zero(float), default=2.0, help="seconds to wait for each reply"
+    )
     p.add_argument(
         "--faults",
         default=None,
@@ -680,9 +682,11 @@ def cmd_tolerances(args: argparse.Namespace) -> int:
     from vehil import scenario, tolerances
 
     sc = scenario.load(args.scenario)
-    found = tolerances.budget(sc, args.trials, args.safety, args.roundoff)
+    prepared = tolerances.prepare(sc)  # a log's drive is as long as the log
+    found = tolerances.budget(sc, args.trials, args.safety, args.roundoff, prepared)
     t = Table(
-        title=f"{sc.name} ({sc.mode}, T = {sc.sample_time:g} s, {sc.samples:,} steps): "
+        title=f"{sc.name} ({sc.mode}, T = {sc.sample_time:g} s, "
+        f"{len(prepared.reference):,} steps): "
         f"the rounding's reach and the tolerance it suggests (× {args.safety:g})"
     )
     for col in ("output", "reach (max |Δ|)", "suggested abs", "scenario's abs"):
@@ -733,6 +737,22 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     title = f"sweep {sc.name}: {len(result.drives)} drives on {result.board}"
     _write_results(args, sweep.cases(result), title, baseline, [result.out / "sweep.png"])
     return 0
+
+
+def _above_zero(kind: type) -> Callable[[str], Any]:
+    """An argparse type: a count (int) or a time (float) above 0."""
+
+    def parse(text: str) -> Any:
+        try:
+            value = kind(text)
+        except ValueError:
+            what = "a whole number" if kind is int else "a number"
+            raise argparse.ArgumentTypeError(f"{text!r} is not {what}") from None
+        if not value > 0:
+            raise argparse.ArgumentTypeError(f"{text}: give a number above 0")
+        return value
+
+    return parse
 
 
 def _sizes(text: str) -> list[int]:
@@ -909,19 +929,23 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument(
         "--baud", type=int, default=115200, help="the bootloader's baud rate (the Mega's: 115200)"
     )
-    p.add_argument("--timeout", type=float, default=2.0, help="seconds to wait for each reply")
+    p.add_argument(
+        "--timeout", type=_above_zero(float), default=2.0, help="seconds to wait for each reply"
+    )
     p.set_defaults(func=cmd_flash)
 
     p = sub.add_parser("ping", help="measure PING round trips")
     _add_board_options(p)
-    p.add_argument("--count", type=int, default=1000)
+    p.add_argument("--count", type=_above_zero(int), default=1000)
     p.add_argument("--size", type=int, default=16, help="payload bytes; -1 for random sizes")
-    p.add_argument("--window", type=int, default=1, help="PINGs in flight (1: stop-and-wait)")
+    p.add_argument(
+        "--window", type=_above_zero(int), default=1, help="PINGs in flight (1: stop-and-wait)"
+    )
     p.set_defaults(func=cmd_ping)
 
     p = sub.add_parser("demo", help="boot a board, show INFO, ping it, stream passthrough samples")
     _add_board_options(p)
-    p.add_argument("--samples", type=int, default=5000)
+    p.add_argument("--samples", type=_above_zero(int), default=5000)
     p.set_defaults(func=cmd_demo)
 
     p = sub.add_parser("run", help="run scenarios on boards, record them, and report")
@@ -941,7 +965,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     _add_run_options(p)
     _add_result_options(p)
     _add_dask_options(p)
-    p.add_argument("--window", type=int, default=None, help="samples in flight (lockstep)")
+    p.add_argument(
+        "--window", type=_above_zero(int), default=None, help="samples in flight (lockstep)"
+    )
     p.add_argument(
         "--profile", action="store_true", help="simavr: cycles per function of every step, too"
     )
@@ -1036,7 +1062,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         default=",".join(map(str, (115200, 250000, 500000, 1_000_000, 2_000_000))),
         help="comma-separated, or 'all' (9600 ... 2000000)",
     )
-    p.add_argument("--count", type=int, default=200, help="exchanges per point at 1 Mbaud")
+    p.add_argument(
+        "--count", type=_above_zero(int), default=200, help="exchanges per point at 1 Mbaud"
+    )
     p.add_argument("--no-sweep", action="store_true")
     p.add_argument("--no-estimators", action="store_true")
     p.add_argument(
@@ -1061,10 +1089,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         "path), counted by the simavr bridge",
     )
     p.add_argument("scenario", nargs="?", help="with --functions: the scenario whose steps")
-    p.add_argument("--samples", type=int, default=None, help="with --functions: at most N steps")
+    p.add_argument(
+        "--samples", type=_above_zero(int), default=None, help="with --functions: at most N steps"
+    )
     p.add_argument(
         "--window",
-        type=int,
+        type=_above_zero(int),
         default=None,
         help="with --functions: samples (with --ping: PINGs) in flight (1: stop-and-wait)",
     )
@@ -1087,7 +1117,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     p = sub.add_parser("bench", help="samples/s through the runner per board (host side)")
     p.add_argument("--boards", default="native,simavr,qemu")
     p.add_argument("--scenario", default="sine")
-    p.add_argument("--timeout", type=float, default=2.0)
+    p.add_argument("--timeout", type=_above_zero(float), default=2.0)
     _add_json_option(p)
     p.set_defaults(func=cmd_bench)
 

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vehil.errors import LinkError
+from vehil.errors import LinkError, VehilError
 from vehil.link import Link
 
 
@@ -45,7 +45,7 @@ def run_ping(
     rng = random.Random(seed)
     room = link.info.fields["max_body"] - 4  # the PONG adds a 4-byte timestamp
     if size is not None and not 0 <= size <= room:
-        raise ValueError(f"ping size {size} out of range: the board echoes 0..{room} bytes")
+        raise VehilError(f"--size {size}: the board echoes 0..{room} bytes (or -1: random sizes)")
     payloads = [
         rng.randbytes(size if size is not None else rng.randint(0, room)) for _ in range(count)
     ]

@@ -168,3 +168,9 @@ def test_several_scenarios_on_two_boards_at_once_give_one_table_and_the_worst_st
     for name in rows:  # each run its own folder, recording and report
         assert (out / name / "run.arrow").exists() and (out / name / "report.md").exists()
     assert cli.main(["run", str(tmp_path / "nothing-*.toml"), "--board", "native"]) == 2
+
+
+def test_a_ping_size_the_board_cannot_echo_is_an_error_naming_its_range(built, capsys) -> None:  # noqa: ANN001
+    assert cli.main(["ping", "--board", "native", "--size", "500", "--count", "2"]) == 2
+    said = capsys.readouterr().out
+    assert "error: --size 500: the board echoes 0..124 bytes (or -1: random sizes)" in said

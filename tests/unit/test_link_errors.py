@@ -24,3 +24,21 @@ def test_a_board_that_never_answers_is_named_with_the_tries_and_time_spent() -> 
     assert said.startswith("no reply to CONFIG (not sent again: the copies sent before, unanswered")
     assert "a board slower to answer needs a longer --timeout" in said
     assert ", the last of 3 tries over" in said
+
+
+@pytest.mark.parametrize(
+    ("args", "error"),
+    [
+        (["ping", "--count", "0"], "argument --count: 0: give a number above 0"),
+        (["ping", "--count", "1.5"], "argument --count: '1.5' is not a whole number"),
+        (["ping", "--window", "-1"], "argument --window: -1: give a number above 0"),
+        (["run", "sine", "--timeout", "0"], "argument --timeout: 0: give a number above 0"),
+        (["info", "--timeout", "soon"], "argument --timeout: 'soon' is not a number"),
+    ],
+)
+def test_counts_windows_and_timeouts_below_one_are_refused_by_name(args, error, capsys) -> None:  # noqa: ANN001
+    from vehil import cli
+
+    with pytest.raises(SystemExit) as exc:
+        cli.main(args)
+    assert exc.value.code == 2 and error in capsys.readouterr().err

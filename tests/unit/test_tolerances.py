@@ -31,3 +31,17 @@ def test_a_filter_amplifies_what_it_computes_and_fixed_reaches_further_than_floa
     assert b.tolerance == pytest.approx(4 * b.reach, rel=0.1) and b.tolerance >= 4 * b.reach
     assert b.shipped == 1e-4
     assert "[tolerance.x_r]\nabs = " in tolerances.as_toml(fixed)
+
+
+def test_vehil_tolerances_of_a_log_scenario_counts_the_log_s_steps(tmp_path, capsys) -> None:  # noqa: ANN001
+    from vehil import cli
+
+    rows = "\n".join(f"{k * 0.01:.2f},{np.sin(k * 0.01):.6f}" for k in range(300))
+    (tmp_path / "drive.csv").write_text(f"t [s],speed [1]\n{rows}\n")
+    sc = tmp_path / "replay.toml"
+    sc.write_text(
+        '[scenario]\nsample_time = 0.01\n[log]\npath = "drive.csv"\n[log.columns]\n'
+        'y = "speed"\n[estimator]\nname = "passthrough"\n[tolerance.y]\nrel = 1.2e-7\n'
+    )
+    assert cli.main(["tolerances", str(sc), "--trials", "1"]) == 0
+    assert "300 steps" in " ".join(capsys.readouterr().out.split())
