@@ -1,4 +1,4 @@
-"""The link's errors: what a board that stops answering is told with."""
+"""The link's and the boards' errors: what a user is told, and nothing more."""
 
 import os
 
@@ -42,3 +42,18 @@ def test_counts_windows_and_timeouts_below_one_are_refused_by_name(args, error, 
     with pytest.raises(SystemExit) as exc:
         cli.main(args)
     assert exc.value.code == 2 and error in capsys.readouterr().err
+
+
+def test_an_unreachable_labgrid_coordinator_is_said_once(monkeypatch, capsys, caplog) -> None:  # noqa: ANN001
+    import socket
+
+    from vehil import cli
+
+    with socket.socket() as s:  # a port with nothing listening
+        s.bind(("127.0.0.1", 0))
+        address = f"127.0.0.1:{s.getsockname()[1]}"
+    monkeypatch.setenv("LG_COORDINATOR", address)
+    assert cli.main(["info", "--board", "labgrid:mega-3"]) == 2
+    said = capsys.readouterr()
+    assert f"cannot reach the labgrid coordinator at {address}" in said.out
+    assert "coordinator is unavailable" not in said.err + caplog.text  # labgrid's own log line

@@ -14,6 +14,7 @@ import concurrent.futures
 import contextlib
 import getpass
 import json
+import logging
 import os
 import socket
 import threading
@@ -35,6 +36,12 @@ DEFAULT_COORDINATOR = "127.0.0.1:20408"  # labgrid's own default
 _POLL_S = 0.2
 _CALL_TIMEOUT_S = 10.0
 _NEWS_WAIT_S = 2.0
+
+
+def _quiet(record: logging.LogRecord) -> bool:
+    """labgrid's client logs a refused connection through the root logger, which prints it
+    as `ERROR:root:...` above the error vehil raises for the same failure."""
+    return False
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -117,6 +124,8 @@ class Coordinator:
         from labgrid.remote.client import ClientSession, Error
 
         session = ClientSession(self.address, asyncio.get_running_loop())
+        root = logging.getLogger()
+        root.addFilter(_quiet)
         try:
             await session.start()
         except Error as exc:
@@ -125,6 +134,8 @@ class Coordinator:
                 f"cannot reach the labgrid coordinator at {self.address} ({exc}): is "
                 "labgrid-coordinator running there? (set LG_COORDINATOR=HOST:PORT)"
             ) from None
+        finally:
+            root.removeFilter(_quiet)
         return session
 
     def call(self, coro: Coroutine[Any, Any, Any], timeout_s: float = _CALL_TIMEOUT_S) -> Any:
