@@ -63,15 +63,16 @@ class _Pending:
         self.wire_bytes = len(framing.encode(0, 0, self.body))  # whatever the seq
 
     def describe(self) -> str:
-        seq = (
-            f"seq {self.seq}"
-            if self.seq
-            else "(not sent again: the copies sent before, unanswered, may still fill the "
-            "board's RX buffer)"
-        )
+        notes = []
         if self.name == "SAMPLE":  # its index leads the body
-            return f"SAMPLE {seq} (sample {int.from_bytes(self.body[:2], 'little')})"
-        return f"{self.name} {seq}"
+            notes.append(f"sample {int.from_bytes(self.body[:2], 'little')}")
+        if not self.seq:
+            notes.append(
+                "not sent again: the copies sent before, unanswered, may still fill the "
+                "board's RX buffer"
+            )
+        seq = f" seq {self.seq}" if self.seq else ""
+        return f"{self.name}{seq}" + (f" ({'; '.join(notes)})" if notes else "")
 
 
 @dataclass(frozen=True)

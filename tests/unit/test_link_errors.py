@@ -57,3 +57,15 @@ def test_an_unreachable_labgrid_coordinator_is_said_once(monkeypatch, capsys, ca
     said = capsys.readouterr()
     assert f"cannot reach the labgrid coordinator at {address}" in said.out
     assert "coordinator is unavailable" not in said.err + caplog.text  # labgrid's own log line
+
+
+def test_a_lost_sample_is_named_by_its_index_and_why_it_was_not_sent_again() -> None:
+    from vehil.link import _Pending
+
+    lost = _Pending("SAMPLE", (2584).to_bytes(2, "little") + b"\0" * 4)
+    assert lost.describe() == (
+        "SAMPLE (sample 2584; not sent again: the copies sent before, unanswered, may still "
+        "fill the board's RX buffer)"
+    )
+    lost.seq = 7
+    assert lost.describe() == "SAMPLE seq 7 (sample 2584)"
