@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import errno
 import json
 import signal
 import sys
@@ -776,6 +777,12 @@ def cmd_profile(args: argparse.Namespace) -> int:
     bauds = (
         profile.BAUDS_ALL if args.bauds == "all" else tuple(int(b) for b in args.bauds.split(","))
     )
+    # Where the figures go, and what they are compared with: checked before measuring.
+    out = Path(
+        args.out or runs_dir() / f"profile-{args.board if args.board.isidentifier() else 'port'}"
+    )
+    out.mkdir(parents=True, exist_ok=True)
+    old = _profile_json(Path(args.compare)) if args.compare else None
     # simavr paced to the wall clock, so host-clock round trips are the chip's.
     simavr = SimavrOptions(realtime=True) if args.board == "simavr" else None
     board = make_board(args.board, BoardOptions(timeout_s=args.timeout), simavr)
@@ -834,19 +841,13 @@ def cmd_profile(args: argparse.Namespace) -> int:
             "[yellow]QEMU ignores the baud rate and times with the host clock: its "
             "latencies and cycles are not chip figures.[/]"
         )
-    out = Path(
-        args.out or runs_dir() / f"profile-{args.board if args.board.isidentifier() else 'port'}"
-    )
     profile.save(figures, out / "profile.json")
     if args.json:
         args.json_out.append(figures)  # the figures rather than their tables
     for png in profile_report.plots(figures, out):
         console.print(f"plot {png}")
     console.print(f"figures {out / 'profile.json'}")
-    if args.compare:
-        import json
-
-        old = json.loads(Path(args.compare).read_text())
+    if old is not None:
         slower = profile.compare_figures(old, figures)
         for line in slower:
             console.print(f"[red]slower:[/] {line}")
@@ -854,6 +855,19 @@ def cmd_profile(args: argparse.Namespace) -> int:
             console.print(f"[green]nothing slower than in {args.compare}[/]")
         return 1 if slower or (args.budgets and misses) else 0
     return 1 if args.budgets and misses else 0
+
+
+def _profile_json(path: Path) -> dict[str, Any]:
+    """An earlier `vehil profile`'s figures, to compare with."""
+    try:
+        old = json.loads(path.read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise VehilError(
+            f"{path}: not a profile.json ({exc}): give one `vehil profile` wrote"
+        ) from None
+    if not isinstance(old, dict) or "board" not in old:
+        raise VehilError(f"{path}: not a profile.json: give one `vehil profile` wrote")
+    return old
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
@@ -882,6 +896,20 @@ def cmd_bench(args: argparse.Namespace) -> int:
     t.caption = "native is the host's own ceiling: a board slower than it is the board or its link"
     _show(args, t, rows)
     return 0
+
+
+def _file_error(exc: OSError) -> str:
+    """An OSError as a user reads it: the path, what went wrong, and what to do."""
+    what = exc.strerror or str(exc)
+    hint = {
+        errno.EEXIST: "a file is where a folder should be: name a folder",
+        errno.ENOTDIR: "a file is where a folder should be: name a folder",
+        errno.EACCES: "name a folder you can write",
+        errno.EROFS: "name a folder you can write",
+        errno.ENOSPC: "make room, or name another disk",
+    }.get(exc.errno or 0)
+    where = f"{exc.filename}: " if exc.filename else ""
+    return f"{where}{what}" + (f" ({hint})" if hint else "")
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -1147,6 +1175,9 @@ def main(argv: Sequence[str] | None = None) -> int:
             status = int(args.func(args))
     except VehilError as exc:
         console.print(f"[bold red]error:[/] {escape(str(exc))}")
+        return 2
+    except OSError as exc:  # a file or folder that could not be read or written
+        console.print(f"[bold red]error:[/] {escape(_file_error(exc))}")
         return 2
     except KeyboardInterrupt as exc:
         number = getattr(exc, "signum", signal.SIGINT)

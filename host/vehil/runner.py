@@ -315,6 +315,7 @@ def run(
     target = board if isinstance(board, Board) else make_board(board, options)
     board_name = board if isinstance(board, str) else target.name
     path = recording or default_recording_path(scenario, board_name)
+    path.parent.mkdir(parents=True, exist_ok=True)  # before the board starts: nothing to stop
     resumes: list[Resume] = []
     stack_bytes: int | None = None
     ended, error, stop_signal = "completed", None, None

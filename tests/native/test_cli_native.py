@@ -174,3 +174,30 @@ def test_a_ping_size_the_board_cannot_echo_is_an_error_naming_its_range(built, c
     assert cli.main(["ping", "--board", "native", "--size", "500", "--count", "2"]) == 2
     said = capsys.readouterr().out
     assert "error: --size 500: the board echoes 0..124 bytes (or -1: random sizes)" in said
+
+
+@pytest.mark.parametrize(
+    ("command", "error"),
+    [
+        (["run", "sine", "--out", "FILE"], "FILE: File exists (a file is where a folder should be"),
+        (["sweep", "sweep-manf", "-n", "1", "--out", "FILE"], "FILE/drive-000: Not a directory"),
+        (["profile", "--no-sweep", "--out", "FILE"], "FILE: File exists (a file is where a"),
+        (["profile", "--no-sweep", "--compare", "FILE"], "FILE: not a profile.json"),
+        (["profile", "--no-sweep", "--compare", "NONE"], "NONE: No such file or directory"),
+    ],
+)
+def test_a_folder_or_file_that_cannot_be_used_is_an_error_before_the_work(
+    built,  # noqa: ANN001
+    tmp_path,  # noqa: ANN001
+    capsys,  # noqa: ANN001
+    command,  # noqa: ANN001
+    error,  # noqa: ANN001
+) -> None:
+    file = tmp_path / "a-file"
+    file.write_text("not a folder")
+    paths = {"FILE": str(file), "NONE": str(tmp_path / "none.json")}
+    command = [paths.get(c, c) for c in command]
+    assert cli.main([*command, "--board", "native"]) == 2
+    said = " ".join(capsys.readouterr().out.split())
+    assert f"error: {error}".replace("FILE", str(file)).replace("NONE", paths["NONE"]) in said
+    assert "samples" not in said and "Traceback" not in said  # refused before any run
