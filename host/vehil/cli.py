@@ -945,7 +945,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     where = p.add_mutually_exclusive_group()
     where.add_argument("--port", help="a real board's serial port, e.g. /dev/ttyACM0")
-    where.add_argument("--board", help="simavr-bootloader (or a port)")
+    where.add_argument(
+        "--board", help="simavr-bootloader, labgrid:PLACE (its network serial port), or a port"
+    )
     p.add_argument(
         "--env",
         default="offline",
@@ -1018,8 +1020,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.set_defaults(func=cmd_replay)
 
     p = sub.add_parser("compare", help="compare the board outputs of two recorded runs")
-    p.add_argument("run_a")
-    p.add_argument("run_b")
+    p.add_argument("run_a", help="a run's folder or its run.arrow (A)")
+    p.add_argument("run_b", help="another run of the same drive (B), compared with A")
     p.add_argument("--atol", type=float, default=0.0, help="accept differences up to this")
     _add_json_option(p)
     p.set_defaults(func=cmd_compare)
@@ -1041,7 +1043,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.set_defaults(func=cmd_plants)
 
     p = sub.add_parser("reproduce", help="a paper's published figures beside ours")
-    p.add_argument("paper", help="the paper's key, e.g. acc, braking, stlqf")
+    p.add_argument(
+        "paper", help="the paper's key, e.g. acc, manf, stlqf (an unknown one lists them all)"
+    )
     p.add_argument("--board", default=None, help="also run the board estimators on this board")
     p.set_defaults(func=cmd_reproduce)
 
