@@ -50,6 +50,70 @@
         adc     \c, \z
 .endm
 
+;    P1..P6 (registers p1-p6) = a b 2^-8 for the unsigned a (four registers from a0) and b
+; (three from b0), by columns; with rnd given, rounded half up (P0's top bit into P1). z is
+; cleared for the column sums; r1 is left dirty.
+.macro MUL32X24 a0, b0, p1, p2, p3, p4, p5, p6, z, rnd
+        clr     \z
+        clr     \p2
+        clr     \p3
+        clr     \p4
+        clr     \p5
+        clr     \p6
+        mul     \a0, \b0
+        mov     \p1, r1
+        .ifnb   \rnd
+        lsl     r0
+        adc     \p1, \z
+        .endif
+        mul     \a0+1, \b0
+        COL     \p1, \p2, \p3, \z
+        mul     \a0, \b0+1
+        COL     \p1, \p2, \p3, \z
+        mul     \a0+2, \b0
+        COL     \p2, \p3, \p4, \z
+        mul     \a0+1, \b0+1
+        COL     \p2, \p3, \p4, \z
+        mul     \a0, \b0+2
+        COL     \p2, \p3, \p4, \z
+        mul     \a0+3, \b0
+        COL     \p3, \p4, \p5, \z
+        mul     \a0+2, \b0+1
+        COL     \p3, \p4, \p5, \z
+        mul     \a0+1, \b0+2
+        COL     \p3, \p4, \p5, \z
+        mul     \a0+3, \b0+1
+        COL     \p4, \p5, \p6, \z
+        mul     \a0+2, \b0+2
+        COL     \p4, \p5, \p6, \z
+        mul     \a0+3, \b0+2
+        add     \p5, r0
+        adc     \p6, r1        ; a b < 2^56: no carry out
+.endm
+; P1..P7 += a b3 2^16: a 32 × 24 product's P taken to a 32 × 32 one's by b's fourth byte b3
+; (z is 0; r1 is left dirty)
+.macro MUL32X8_HI a0, b3, p3, p4, p5, p6, p7, z
+        clr     \p7
+        mul     \a0, \b3
+        add     \p3, r0
+        adc     \p4, r1
+        adc     \p5, \z
+        adc     \p6, \z
+        adc     \p7, \z
+        mul     \a0+1, \b3
+        add     \p4, r0
+        adc     \p5, r1
+        adc     \p6, \z
+        adc     \p7, \z
+        mul     \a0+2, \b3
+        add     \p5, r0
+        adc     \p6, r1
+        adc     \p7, \z
+        mul     \a0+3, \b3
+        add     \p6, r0
+        adc     \p7, r1        ; a b < 2^64: no carry out
+.endm
+
 ; the four bytes from a0 (r16-r31), as unsigned, their magnitude; the sign into T
 .macro ABS4 a0
         bst     \a0+3, 7
@@ -156,39 +220,7 @@ accel_cond_chan_avr:
         ldd     r18, Z+C_C2
         ldd     r19, Z+C_C2+1
         ldd     r20, Z+C_C2+2
-        clr     r26             ; P (r11:r6) = a c2 2^-8, rounded: P0's top bit into P1
-        clr     r7
-        clr     r8
-        clr     r9
-        clr     r10
-        clr     r11
-        mul     r22, r18
-        mov     r6, r1
-        lsl     r0
-        adc     r6, r26
-        mul     r23, r18
-        COL     r6, r7, r8, r26
-        mul     r22, r19
-        COL     r6, r7, r8, r26
-        mul     r24, r18
-        COL     r7, r8, r9, r26
-        mul     r23, r19
-        COL     r7, r8, r9, r26
-        mul     r22, r20
-        COL     r7, r8, r9, r26
-        mul     r25, r18
-        COL     r8, r9, r10, r26
-        mul     r24, r19
-        COL     r8, r9, r10, r26
-        mul     r23, r20
-        COL     r8, r9, r10, r26
-        mul     r25, r19
-        COL     r9, r10, r11, r26
-        mul     r24, r20
-        COL     r9, r10, r11, r26
-        mul     r25, r20
-        add     r10, r0
-        adc     r11, r1         ; a c2 < 2^55: no carry out
+        MUL32X24 22, 18, r6, r7, r8, r9, r10, r11, r26, rnd ; P (r11:r6) = a c2 2^-8, rounded
         clr     r1
         ldd     r18, Y+CH_DH_LO ; D (r23:r18) = dh in Q37
         ldd     r19, Y+CH_DH_LO+1
@@ -209,46 +241,8 @@ accel_cond_chan_avr:
         ldd     r19, Z+C_C12+1
         ldd     r20, Z+C_C12+2
         ldd     r21, Z+C_C12+3
-        clr     r30             ; P1..P7 (r2-r5, r26, r27, r31) = a c12 2^-8
-        clr     r3
-        clr     r4
-        clr     r5
-        clr     r26
-        clr     r27
-        clr     r31
-        mul     r22, r18
-        mov     r2, r1
-        mul     r23, r18
-        COL     r2, r3, r4, r30
-        mul     r22, r19
-        COL     r2, r3, r4, r30
-        mul     r24, r18
-        COL     r3, r4, r5, r30
-        mul     r23, r19
-        COL     r3, r4, r5, r30
-        mul     r22, r20
-        COL     r3, r4, r5, r30
-        mul     r25, r18
-        COL     r4, r5, r26, r30
-        mul     r24, r19
-        COL     r4, r5, r26, r30
-        mul     r23, r20
-        COL     r4, r5, r26, r30
-        mul     r22, r21
-        COL     r4, r5, r26, r30
-        mul     r25, r19
-        COL     r5, r26, r27, r30
-        mul     r24, r20
-        COL     r5, r26, r27, r30
-        mul     r23, r21
-        COL     r5, r26, r27, r30
-        mul     r25, r20
-        COL     r26, r27, r31, r30
-        mul     r24, r21
-        COL     r26, r27, r31, r30
-        mul     r25, r21
-        add     r27, r0
-        adc     r31, r1         ; a c12 < 2^63: no carry out
+        MUL32X24 22, 18, r2, r3, r4, r5, r26, r27, r30 ; P1..P7 (r2-r5, r26, r27, r31) = a c12 2^-8
+        MUL32X8_HI 22, r21, r4, r5, r26, r27, r31, r30
         clr     r1
         lsl     r2              ; rounded to Q37: P1's top bit up
         adc     r3, r30
