@@ -81,6 +81,12 @@ def read_can(
         raise
     except Exception as exc:  # python-can raises many types for a bad file
         raise LogError(f"{path}: not a readable {fmt} CAN log (frame {frames}): {exc}") from None
+    held, whole = path.stat().st_size, getattr(reader, "file_size", 0)  # BLF's header
+    if whole > held:  # python-can's reader stops where the bytes end, and says nothing
+        raise LogError(
+            f"{path}: the file is cut short: its header says {whole:,} B, it holds {held:,} "
+            f"({frames:,} frames read); a run on it would check part of the drive as the whole"
+        )
     out = {}
     for s in signals:
         if not stamps[s]:

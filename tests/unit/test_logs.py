@@ -293,6 +293,15 @@ def test_raw_can_is_decoded_with_the_dbc(can_log, suffix, fmt) -> None:  # noqa:
             trace_from_log(log(path, format=fmt, columns=cols), ACC, 0.02, math.inf)
 
 
+def test_a_cut_blf_log_is_refused_not_run_as_the_whole_drive(can_log) -> None:  # noqa: ANN001
+    path, dbc = can_log(".blf")
+    data = path.read_bytes()
+    path.write_bytes(data[: len(data) // 2])
+    cols = {"y": ColumnMap(column="WHEEL_SPEEDS.WHEEL_SPEED_FL", unit="1")}
+    with pytest.raises(LogError, match=r"drive.blf: the file is cut short: its header says "):
+        trace_from_log(log(path, format="blf", dbc=dbc, columns=cols), SPEC, 0.02, math.inf)
+
+
 def test_one_drive_through_csv_and_through_mdf4_gives_the_same_inputs(tmp_path) -> None:  # noqa: ANN001
     from asammdf import MDF, Signal
 
