@@ -24,17 +24,18 @@
 #define RESULT_CACHE 16u
 #define RESULT_CACHE_BODY 40u
 
-/* The request being answered: its type (which the reply's CRC covers) and seq, and the
- * cycle counter when its handling began (one read: frame_cycles' start, a PONG's timestamp). */
+/* The request being answered: its type (which the reply's CRC covers), seq and body's
+ * length, and the cycle counter when its handling began (one read: frame_cycles' start, a
+ * PONG's timestamp). Passed by value: its 8 bytes fit the registers a call passes, where
+ * through a pointer the compiler copied the frame's header to the stack for every one. */
 typedef struct {
     uint8_t type;
     uint16_t seq;
-    const uint8_t *body;
     uint8_t body_len;
     uint32_t at;
 } request_t;
 
-static const request_t unsolicited = {0, UNSOLICITED_SEQ, NULL, 0, 0};
+static const request_t unsolicited = {0, UNSOLICITED_SEQ, 0, 0};
 
 /* A step's cycles: the cycle counter's, less the UART interrupts that landed in the
  * step (in lockstep the frames behind it arrive while it runs, and the last reply may
@@ -84,6 +85,10 @@ static struct {
     count_t rx_frames, tx_frames; /* the STATS reply's, filled in when it is packed */
     msg_stats_t stats;
 } core;
+
+/* A request's body, where the received frame holds it (a reply the board sends on its
+ * own answers none). */
+static inline const uint8_t *req_body(void) { return frame_body(&core.rx); }
 
 /* The most parameter bytes a CONFIG may carry when it comes in parts. */
 #define CONFIG_PARAMS_MAX 512u
@@ -138,30 +143,30 @@ static const uint8_t *results_find(uint16_t behind, uint8_t *len)
 }
 
 /* A reply, encoded with its CRC straight into the TX buffer. */
-static void send_body(const request_t *req, uint8_t type, const uint8_t *body, uint8_t body_len)
+static void send_body(request_t req, uint8_t type, const uint8_t *body, uint8_t body_len)
 {
     frame_tx_t tx;
-    frame_tx_begin(&tx, req->type, type, req->seq, body_len);
+    frame_tx_begin(&tx, req.type, type, req.seq, body_len);
     frame_tx_bytes(&tx, body, body_len);
     frame_tx_end(&tx);
     count_up(&core.tx_frames);
 }
 
-static void send(const request_t *req, uint8_t type, uint8_t body_len)
+static void send(request_t req, uint8_t type, uint8_t body_len)
 {
     send_body(req, type, core.body, body_len);
 }
 
-static void send_ack(const request_t *req)
+static void send_ack(request_t req)
 {
-    msg_ack_t ack = {.request = req->type};
+    msg_ack_t ack = {.request = req.type};
     msg_ack_pack(&ack, core.body);
     send(req, MSG_ACK, MSG_ACK_FIXED_SIZE);
 }
 
-static void send_error(const request_t *req, uint8_t code, uint16_t detail)
+static void send_error(request_t req, uint8_t code, uint16_t detail)
 {
-    msg_error_t err = {.code = code, .request = req->type, .detail = detail};
+    msg_error_t err = {.code = code, .request = req.type, .detail = detail};
     msg_error_pack(&err, core.body);
     send(req, MSG_ERROR, MSG_ERROR_FIXED_SIZE);
     if (core.stats.errors_sent < UINT16_MAX) {
@@ -169,7 +174,7 @@ static void send_error(const request_t *req, uint8_t code, uint16_t detail)
     }
 }
 
-static void send_info(const request_t *req)
+static void send_info(request_t req)
 {
     msg_info_t info = {
         .protocol = VEHIL_PROTOCOL_VERSION,
@@ -201,38 +206,38 @@ static void saturating_inc(uint16_t *counter)
     }
 }
 
-static void on_hello(const request_t *r)
+static void on_hello(request_t r)
 {
-    if (r->body_len >= 1 && r->body[0] != VEHIL_PROTOCOL_VERSION) {
+    if (r.body_len >= 1 && req_body()[0] != VEHIL_PROTOCOL_VERSION) {
         send_error(r, ERR_VERSION, VEHIL_PROTOCOL_VERSION);
-    } else if (r->body_len != MSG_HELLO_FIXED_SIZE) {
+    } else if (r.body_len != MSG_HELLO_FIXED_SIZE) {
         send_error(r, ERR_BAD_LENGTH, MSG_HELLO_FIXED_SIZE);
     } else {
         send_info(r);
     }
 }
 
-static void on_ping(const request_t *r)
+static void on_ping(request_t r)
 {
     const uint8_t room = VEHIL_MAX_BODY - MSG_PONG_FIXED_SIZE;
-    if (r->body_len > room) {
+    if (r.body_len > room) {
         send_error(r, ERR_BAD_LENGTH, room);
         return;
     }
     /* The timestamp over the request's header (r holds what was in it), and the echo
      * from the request's body where it lies: one run through the encoder. */
-    msg_pong_t pong = {.timestamp = r->at};
+    msg_pong_t pong = {.timestamp = r.at};
     msg_pong_pack(&pong, frame_echo_head(&core.rx));
-    frame_tx_echo(&core.rx, r->type, MSG_PONG, r->seq, r->body_len);
+    frame_tx_echo(&core.rx, r.type, MSG_PONG, r.seq, r.body_len);
     count_up(&core.tx_frames);
 }
 VEHIL_STATIC_ASSERT(MSG_PONG_FIXED_SIZE == FRAME_HEADER_SIZE, "frame_tx_echo's head is a PONG's");
 
 /* Copies the parameter bytes a CONFIG(_PART) carries to `offset` of the staging area,
  * if they follow what it holds and fit; 0 when refused (and answered). */
-static uint8_t take_params(const request_t *r, uint16_t offset, uint8_t head)
+static uint8_t take_params(request_t r, uint16_t offset, uint8_t head)
 {
-    uint8_t len = (uint8_t)(r->body_len - head);
+    uint8_t len = (uint8_t)(r.body_len - head);
     if (offset > results.staged) {
         send_error(r, ERR_OUT_OF_ORDER, results.staged);
         return 0;
@@ -241,34 +246,34 @@ static uint8_t take_params(const request_t *r, uint16_t offset, uint8_t head)
         send_error(r, ERR_PARAMS_OVERSIZE, CONFIG_PARAMS_MAX);
         return 0;
     }
-    memcpy(results.u.params + offset, r->body + head, len);
+    memcpy(results.u.params + offset, req_body() + head, len);
     return 1;
 }
 
-static void on_config_part(const request_t *r)
+static void on_config_part(request_t r)
 {
-    if (r->body_len < MSG_CONFIG_PART_FIXED_SIZE) {
+    if (r.body_len < MSG_CONFIG_PART_FIXED_SIZE) {
         send_error(r, ERR_BAD_LENGTH, MSG_CONFIG_PART_FIXED_SIZE);
         return;
     }
     msg_config_part_t part;
-    msg_config_part_unpack(r->body, &part);
+    msg_config_part_unpack(req_body(), &part);
     core.estimator = NULL; /* a new configuration begins: the old one ends */
     results_clear();       /* its slots are about to hold the parameters */
     if (take_params(r, part.offset, MSG_CONFIG_PART_FIXED_SIZE)) {
-        results.staged = (uint16_t)(part.offset + r->body_len - MSG_CONFIG_PART_FIXED_SIZE);
+        results.staged = (uint16_t)(part.offset + r.body_len - MSG_CONFIG_PART_FIXED_SIZE);
         send_ack(r);
     }
 }
 
-static void on_config(const request_t *r)
+static void on_config(request_t r)
 {
-    if (r->body_len < MSG_CONFIG_FIXED_SIZE) {
+    if (r.body_len < MSG_CONFIG_FIXED_SIZE) {
         send_error(r, ERR_BAD_LENGTH, MSG_CONFIG_FIXED_SIZE);
         return;
     }
     msg_config_t cfg;
-    msg_config_unpack(r->body, &cfg);
+    msg_config_unpack(req_body(), &cfg);
     estimator_t desc, *est = &desc;
     if (!estimator_load(estimator_index(cfg.estimator), est)) {
         send_error(r, ERR_UNKNOWN_ESTIMATOR, cfg.estimator);
@@ -279,11 +284,11 @@ static void on_config(const request_t *r)
         return;
     }
     uint16_t params_len = (uint16_t)(est->n_params * ESTIMATOR_VALUE_SIZE);
-    if (cfg.offset > params_len || r->body_len != MSG_CONFIG_FIXED_SIZE + params_len - cfg.offset) {
+    if (cfg.offset > params_len || r.body_len != MSG_CONFIG_FIXED_SIZE + params_len - cfg.offset) {
         send_error(r, ERR_BAD_LENGTH, (uint16_t)(MSG_CONFIG_FIXED_SIZE + params_len - cfg.offset));
         return;
     }
-    const uint8_t *params = r->body + MSG_CONFIG_FIXED_SIZE;
+    const uint8_t *params = req_body() + MSG_CONFIG_FIXED_SIZE;
     if (cfg.offset > 0u) { /* the block's head came in CONFIG_PARTs: its tail joins it */
         if (!take_params(r, cfg.offset, MSG_CONFIG_FIXED_SIZE)) {
             return;
@@ -303,14 +308,14 @@ static void on_config(const request_t *r)
     send_ack(r);
 }
 
-static void on_reset(const request_t *r)
+static void on_reset(request_t r)
 {
-    if (r->body_len != MSG_RESET_FIXED_SIZE) {
+    if (r.body_len != MSG_RESET_FIXED_SIZE) {
         send_error(r, ERR_BAD_LENGTH, MSG_RESET_FIXED_SIZE);
         return;
     }
     msg_reset_t m;
-    msg_reset_unpack(r->body, &m);
+    msg_reset_unpack(req_body(), &m);
     if (m.what == RESET_WHAT_STATE) {
         if (core.estimator == NULL) {
             send_error(r, ERR_NOT_CONFIGURED, 0);
@@ -332,29 +337,29 @@ static void on_reset(const request_t *r)
     }
 }
 
-static void on_sample(const request_t *r)
+static void on_sample(request_t r)
 {
     const estimator_t *est = core.estimator;
     if (est == NULL) {
         send_error(r, ERR_NOT_CONFIGURED, 0);
         return;
     }
-    uint8_t in_len = (uint8_t)(r->body_len - MSG_SAMPLE_FIXED_SIZE);
+    uint8_t in_len = (uint8_t)(r.body_len - MSG_SAMPLE_FIXED_SIZE);
     uint8_t want = (uint8_t)(est->n_inputs * ESTIMATOR_VALUE_SIZE);
     uint8_t out_max = (uint8_t)(est->n_outputs * ESTIMATOR_VALUE_SIZE);
     if (est->n_inputs == ESTIMATOR_ANY_LENGTH) {
         want = VEHIL_MAX_BODY - MSG_RESULT_FIXED_SIZE; /* the echo must fit a RESULT */
-        if (r->body_len < MSG_SAMPLE_FIXED_SIZE || in_len > want) {
+        if (r.body_len < MSG_SAMPLE_FIXED_SIZE || in_len > want) {
             send_error(r, ERR_BAD_LENGTH, (uint16_t)(MSG_SAMPLE_FIXED_SIZE + want));
             return;
         }
         out_max = in_len;
-    } else if (r->body_len != MSG_SAMPLE_FIXED_SIZE + want) {
+    } else if (r.body_len != MSG_SAMPLE_FIXED_SIZE + want) {
         send_error(r, ERR_BAD_LENGTH, (uint16_t)(MSG_SAMPLE_FIXED_SIZE + want));
         return;
     }
     msg_sample_t sample;
-    msg_sample_unpack(r->body, &sample);
+    msg_sample_unpack(req_body(), &sample);
     if (sample.index != results.next) {
         uint8_t len = 0;
         const uint8_t *kept = results_find((uint16_t)(results.next - sample.index), &len);
@@ -372,7 +377,7 @@ static void on_sample(const request_t *r)
     uint8_t out_len = 0;
     stopwatch_t watch;
     stopwatch_start(&watch);
-    uint8_t status = est->step(estimator_state(), r->body + MSG_SAMPLE_FIXED_SIZE, in_len,
+    uint8_t status = est->step(estimator_state(), req_body() + MSG_SAMPLE_FIXED_SIZE, in_len,
                                body + MSG_RESULT_FIXED_SIZE, &out_len);
     uint32_t elapsed = stopwatch_read(&watch);
     /* The probe's own cost is measured once at boot; a noisy host clock can undercut it,
@@ -385,9 +390,9 @@ static void on_sample(const request_t *r)
     send_body(r, MSG_RESULT, body, body_len);
 }
 
-static void on_get_stats(const request_t *r)
+static void on_get_stats(request_t r)
 {
-    if (r->body_len != MSG_GET_STATS_FIXED_SIZE) {
+    if (r.body_len != MSG_GET_STATS_FIXED_SIZE) {
         send_error(r, ERR_BAD_LENGTH, MSG_GET_STATS_FIXED_SIZE);
         return;
     }
@@ -401,14 +406,14 @@ static void on_get_stats(const request_t *r)
     send(r, MSG_STATS, MSG_STATS_FIXED_SIZE);
 }
 
-static void on_set_baud(const request_t *r)
+static void on_set_baud(request_t r)
 {
-    if (r->body_len != MSG_SET_BAUD_FIXED_SIZE) {
+    if (r.body_len != MSG_SET_BAUD_FIXED_SIZE) {
         send_error(r, ERR_BAD_LENGTH, MSG_SET_BAUD_FIXED_SIZE);
         return;
     }
     msg_set_baud_t b;
-    msg_set_baud_unpack(r->body, &b);
+    msg_set_baud_unpack(req_body(), &b);
     uint16_t error = port_baud_error(b.baud);
     if (error != 0) {
         send_error(r, ERR_BAD_BAUD, error);
@@ -419,19 +424,19 @@ static void on_set_baud(const request_t *r)
     port_set_baud(b.baud);
 }
 
-static void on_get_estimator(const request_t *r)
+static void on_get_estimator(request_t r)
 {
-    if (r->body_len != MSG_GET_ESTIMATOR_FIXED_SIZE) {
+    if (r.body_len != MSG_GET_ESTIMATOR_FIXED_SIZE) {
         send_error(r, ERR_BAD_LENGTH, MSG_GET_ESTIMATOR_FIXED_SIZE);
         return;
     }
     estimator_t est;
-    if (!estimator_load(r->body[0], &est)) {
+    if (!estimator_load(req_body()[0], &est)) {
         send_error(r, ERR_BAD_PARAM, 0);
         return;
     }
     msg_estimator_t e = {
-        .index = r->body[0],
+        .index = req_body()[0],
         .id = est.id,
         .modes = est.modes,
         .n_inputs = est.n_inputs,
@@ -439,15 +444,15 @@ static void on_get_estimator(const request_t *r)
         .n_params = est.n_params,
     };
     msg_estimator_pack(&e, core.body);
-    uint8_t name_len = estimator_name(r->body[0], core.body + MSG_ESTIMATOR_FIXED_SIZE);
+    uint8_t name_len = estimator_name(req_body()[0], core.body + MSG_ESTIMATOR_FIXED_SIZE);
     send(r, MSG_ESTIMATOR, (uint8_t)(MSG_ESTIMATOR_FIXED_SIZE + name_len));
 }
 
 /* By compares, the requests a stream repeats first: a switch's jump table (libgcc's
  * __tablejump2__) takes ~30 cycles, more than this chain to its last request. */
-static void handle(const request_t *r)
+static void handle(request_t r)
 {
-    uint8_t type = r->type;
+    uint8_t type = r.type;
     if (type == MSG_PING) {
         on_ping(r);
     } else if (type == MSG_SAMPLE) {
@@ -475,15 +480,14 @@ static void end_of_frame(frame_status_t st)
 {
     if (st == FRAME_OK) {
         const request_t req = {
-            frame_type(&core.rx), frame_seq(&core.rx), frame_body(&core.rx), frame_body_len(&core.rx),
-            port_cycles(),
+            frame_type(&core.rx), frame_seq(&core.rx), frame_body_len(&core.rx), port_cycles(),
         };
         count_up(&core.rx_frames);
-        handle(&req);
+        handle(req);
         core.stats.frame_cycles += port_cycles() - req.at;
     } else if (st == FRAME_OVERSIZE) {
         saturating_inc(&core.stats.oversize);
-        send_error(&unsolicited, ERR_OVERSIZE, FRAME_RAW_MAX);
+        send_error(unsolicited, ERR_OVERSIZE, FRAME_RAW_MAX);
     } else if (st == FRAME_BAD_COBS) {
         saturating_inc(&core.stats.cobs_errors);
     } else if (st == FRAME_BAD_CRC) {
@@ -491,7 +495,7 @@ static void end_of_frame(frame_status_t st)
     }
     uint16_t overruns = port_rx_overruns();
     if (overruns != core.overruns_reported) {
-        send_error(&unsolicited, ERR_OVERRUN, (uint16_t)(overruns - core.overruns_reported));
+        send_error(unsolicited, ERR_OVERRUN, (uint16_t)(overruns - core.overruns_reported));
         core.overruns_reported = overruns;
     }
 }
@@ -504,7 +508,7 @@ void dispatch_init(void)
     stopwatch_start(&watch);
     core.probe_cycles = (uint16_t)stopwatch_read(&watch);
     core.overruns_reported = port_rx_overruns();
-    send_info(&unsolicited);
+    send_info(unsolicited);
 }
 
 void dispatch_bytes(const uint8_t *data, uint8_t len)
