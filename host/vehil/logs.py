@@ -137,11 +137,21 @@ def read_channels(log: LogSource, names: list[str]) -> dict[str, Channel]:
     for n in names:
         if n not in named.values:
             known = ", ".join(c for c in named.values if not c.endswith("@t"))
-            raise LogError(f"{log.path}: no column {n!r}; columns: {known}")
+            raise LogError(f"{log.path}: no column {n!r}; columns: {known}{_whose(log)}")
         stamps = named.values.get(f"{n}@t", named.values.get("t"))
         assert stamps is not None
         out[n] = Channel(n, stamps, named.values[n], named.units.get(n, ""))
     return out
+
+
+def _whose(log: LogSource) -> str:
+    """For a recording: whose inputs it holds, and so which scenarios can replay it."""
+    if log.format != "vehil":
+        return ""
+    from vehil import record
+
+    name = record.read(log.path).header["estimator"]["name"]
+    return f" (a run of {name}: replay it with a scenario of {name})"
 
 
 def clean(ch: Channel, path: Path) -> Channel:

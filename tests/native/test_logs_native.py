@@ -4,6 +4,7 @@ the recording it gives replays by name, whatever the scenario's [log] maps."""
 import pytest
 
 from vehil import cli, record
+from vehil.paths import DATA_ROOT
 
 SCENARIO = """
 [scenario]
@@ -106,3 +107,19 @@ def test_a_log_with_a_gap_is_refused_by_line_and_column(tmp_path, capsys) -> Non
     md = (out / "report.md").read_text()
     assert "1 duplicated stamps merged (mean), first at line 13, column speed" in md
     assert "- split at 1 gaps longer than max_gap_s: stretches 0-9.9 s, 15-19.9 s" in md
+
+
+def test_a_recording_replayed_with_another_estimator_s_scenario_says_whose_it_is(
+    built,  # noqa: ANN001
+    tmp_path,  # noqa: ANN001
+    capsys,  # noqa: ANN001
+) -> None:
+    short = tmp_path / "short.toml"
+    sine = (DATA_ROOT / "scenarios/synthetic/sine.toml").read_text()
+    short.write_text(sine.replace("duration = 20.0", "duration = 0.1"))
+    assert cli.main(["run", str(short), "--board", "native", "--out", str(tmp_path / "r")]) == 0
+    capsys.readouterr()
+    args = ["replay", str(tmp_path / "r"), "--scenario", "braking/manf-hard-stop"]
+    assert cli.main([*args, "--board", "native"]) == 2
+    said = " ".join(capsys.readouterr().out.split())
+    assert "no column 'omega_f'; columns: t, y, truth.y (a run of passthrough: replay it" in said
