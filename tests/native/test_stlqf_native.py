@@ -122,6 +122,22 @@ def test_a_weight_matrix_that_is_not_positive_definite_is_refused_with_a11(built
     assert exc.value.detail == [p.name for p in spec.params].index("a11")
 
 
+@pytest.mark.parametrize("mode", ["F32", "FIXED"])
+def test_rls_refuses_a_forgetting_per_time_past_its_range_per_sample(built, mode) -> None:  # noqa: ANN001
+    """λ = 0.95 per 0.1 ms is 0.006 per 10 ms step, below λ's 0.5: BAD_PARAM t_ref, as the
+    spec's rule says before any board."""
+    spec = stlqf.RLS
+    values = spec.param_values({"t_ref": 1e-4, "T": 0.01})
+    assert "below 0.5 per sample" in " ".join(spec.rule_problems(values, mode))
+    with open_board("native") as link, pytest.raises(BoardError, match="BAD_PARAM") as exc:
+        link.configure("rls", mode, spec.encode_params(values, mode))
+    assert exc.value.detail == [p.name for p in spec.params].index("t_ref")
+    ok = spec.param_values({"t_ref": 0.01, "T": 0.005})  # 0.95 per 10 ms: 0.9747 a step
+    assert stlqf.per_sample_lambda(ok) == pytest.approx(0.95**0.5)
+    with open_board("native") as link:
+        link.configure("rls", mode, spec.encode_params(ok, mode))
+
+
 def test_the_prefilter_in_c_follows_the_reference(run_scenario) -> None:  # noqa: ANN001
     result = run_scenario("noisy-prefilter", board="native", duration=20.0)
     assert result.figures.outputs["m"].reference.rmse < 5.0

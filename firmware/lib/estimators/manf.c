@@ -19,54 +19,6 @@ static const ROM param_range_t ranges[N_PARAMS] = {
 };
 
 #define GAMMA_MAX 1.9f /* R_g γ below 2^32 in FIXED's unsigned Q24 */
-#define LN2_F 0.693147181f
-
-/* x^k for 0 <= x < 2, k > 0, from IEEE operations alone (libm's last bit differs between
- * avr-libc and the host; CONFIG must derive the same bits on both): ln x from atanh's
- * series once exact doublings bring x into [3/4, 3/2), exp from Taylor's series once whole
- * multiples of ln 2 are taken out. Relative error ~1e-6; results past 2 give 2. */
-static float pow_cf(float x, float k)
-{
-    if (x <= 0.0f) {
-        return 0.0f;
-    }
-    int8_t e = 0;
-    while (x < 0.75f) {
-        x *= 2.0f;
-        e--;
-    }
-    while (x >= 1.5f) {
-        x *= 0.5f;
-        e++;
-    }
-    float z = (x - 1.0f) / (x + 1.0f), z2 = z * z, term = z, ln = 0.0f;
-    for (uint8_t j = 1; j < 20u; j += 2) {
-        ln += term / (float)j;
-        term *= z2;
-    }
-    float y = k * (2.0f * ln + (float)e * LN2_F);
-    if (y > LN2_F) {
-        return 2.0f;
-    }
-    if (y < -80.0f) {
-        return 0.0f;
-    }
-    int8_t n = 0;
-    while (y < -0.5f * LN2_F) {
-        y += LN2_F;
-        n++;
-    }
-    float sum = 1.0f, t = 1.0f;
-    for (uint8_t j = 1; j < 12u; j++) {
-        t *= y / (float)j;
-        sum += t;
-    }
-    while (n-- > 0) {
-        sum *= 0.5f;
-    }
-    return sum;
-}
-
 /* γ and ξ per sample: as given (t_ref = 0, the paper: eqs. 39-40 act per sample), or rates
  * per t_ref of time raised to T / t_ref, so the filter is the same at any sample time
  * (docs/estimators/manf.md). */
@@ -77,8 +29,8 @@ static void per_sample(const uint8_t *params, uint8_t mode, float *gamma, float 
     float t_ref = param_value(params, P_TREF, mode, 30);
     if (t_ref > 0.0f) {
         float k = param_value(params, P_T, mode, 30) / t_ref;
-        *gamma = pow_cf(*gamma, k);
-        *xi = pow_cf(*xi, k);
+        *gamma = param_pow(*gamma, k);
+        *xi = param_pow(*xi, k);
     }
 }
 
@@ -224,7 +176,7 @@ static uint8_t manf_configure(void *state, uint8_t mode, const uint8_t *params)
     }
     float gamma, xi;
     per_sample(params, mode, &gamma, &xi);
-    if (gamma > GAMMA_MAX * 1.000001f) { /* pow_cf's last bits: 1.9 itself passes */
+    if (gamma > GAMMA_MAX * 1.000001f) { /* param_pow's last bits: 1.9 itself passes */
         return (uint8_t)(P_TREF + 1u); /* a rate per t_ref past 1.9 per sample */
     }
     st->mode = mode;

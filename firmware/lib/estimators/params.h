@@ -32,6 +32,11 @@ float param_value(const uint8_t *params, uint8_t i, uint8_t mode, uint8_t q);
 /* Parameter i as it came: an int32 Q value in FIXED mode. */
 int32_t param_q(const uint8_t *params, uint8_t i);
 
+/* x^k for 0 <= x < 2, k > 0, from IEEE operations alone (a rate per time made a rate per
+ * sample at CONFIG, the same bits on the chip and the host); relative error ~1e-6, results
+ * past 2 give 2. */
+float param_pow(float x, float k);
+
 /* 0 if every parameter is finite and in range, else 1 + the first bad index. */
 uint8_t params_check(const uint8_t *params, uint8_t mode, const param_range_t *ranges, uint8_t n);
 

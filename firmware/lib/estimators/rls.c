@@ -6,12 +6,25 @@
 #include "proto/wire.h"
 #include "rom/rom.h"
 
-enum { P_LAMBDA, P_P0_M, P_P0_CDA, P_CAP, P_HELD, N_OWN };
+enum { P_LAMBDA, P_P0_M, P_P0_CDA, P_CAP, P_HELD, P_TREF, N_OWN };
 #define N_PARAMS (N_OWN + LONGIT_N_PARAMS)
 #define ONE_Q30 ((int32_t)1 << 30)
 
 static const ROM param_range_t ranges[N_OWN] = {
-    {0.5f, 1.0f, 30}, {0.0f, 1e9f, 0}, {0.0f, 1e4f, 16}, {1.0f, 1e6f, 0}, {1e-3f, 1e4f, 16}};
+    {0.5f, 1.0f, 30}, {0.0f, 1e9f, 0},  {0.0f, 1e4f, 16},
+    {1.0f, 1e6f, 0},  {1e-3f, 1e4f, 16}, {0.0f, 1.0f, 30}};
+
+/* λ per sample: as given (t_ref = 0), or a forgetting per t_ref of time raised to T / t_ref,
+ * so RLS remembers as long at any sample time (docs/estimators/rls.md). */
+static float per_sample_lambda(const uint8_t *params, uint8_t mode)
+{
+    float lambda = param_value(params, P_LAMBDA, mode, param_range_q(ranges, P_LAMBDA));
+    float t_ref = param_value(params, P_TREF, mode, param_range_q(ranges, P_TREF));
+    if (t_ref > 0.0f) {
+        lambda = param_pow(lambda, param_value(params, N_OWN + LONGIT_T, mode, 30) / t_ref);
+    }
+    return lambda;
+}
 
 /* FIXED's Q formats: ψ = [v̇, ½ρv², g/cos ε] as longit gives them, θ = [m, C_dA_f, m sin]. */
 static const uint8_t psi_q[3] = {24, 18, 26};
@@ -207,7 +220,10 @@ static void configure_q(rls_state_t *s, const uint8_t *params)
                            param_q(params, P_P0_M)};
     const uint8_t p0_q[3] = {0, 16, 0};
     int64_t held = param_q(params, P_HELD); /* Q16 */
-    int32_t lambda = param_q(params, P_LAMBDA);
+    uint8_t sat = 0; /* λ in [0.5, 1] (rls_configure checks it): within Q30's range */
+    int32_t lambda = param_q(params, P_TREF) > 0
+                         ? fx_from_float(per_sample_lambda(params, MODE_FIXED), 30, &sat)
+                         : param_q(params, P_LAMBDA);
     for (uint8_t i = 0; i < 3u; i++) {
         to_scaled(p0[i], p0_q[i], &s->u.q.p0[i], &s->u.q.e_p0[i]);
         to_scaled(p0[i] * p_cap, p0_q[i], &s->u.q.cap[i], &s->u.q.e_cap[i]);
@@ -233,9 +249,13 @@ static uint8_t rls_configure(void *state, uint8_t mode, const uint8_t *params)
     if (bad != 0u) {
         return bad;
     }
+    float lambda = per_sample_lambda(params, mode);
+    if (lambda < 0.5f) {
+        return (uint8_t)(P_TREF + 1u); /* λ^(T / t_ref) below λ's range: FIXED's l needs it */
+    }
     longit_configure(&s->model, params, N_OWN, mode);
     s->mode = mode;
-    s->lambda = param_value(params, P_LAMBDA, mode, param_range_q(ranges, P_LAMBDA));
+    s->lambda = lambda;
     float p0_m = param_value(params, P_P0_M, mode, param_range_q(ranges, P_P0_M));
     float p_cap = param_value(params, P_CAP, mode, param_range_q(ranges, P_CAP));
     s->p0[0] = s->p0[2] = p0_m;

@@ -91,6 +91,22 @@ def no_fixed_prefilter(p: Mapping[str, float], mode: str) -> str | None:
     return None
 
 
+def per_sample_lambda(p: Mapping[str, float]) -> float:
+    """RLS's λ as a step applies it: as given (t_ref = 0), or a forgetting per t_ref of time
+    raised to T / t_ref, so RLS remembers as long at any sample time (docs/estimators/rls.md)."""
+    return p["lambda"] ** (p["T"] / p["t_ref"]) if p["t_ref"] > 0.0 else p["lambda"]
+
+
+def lambda_within_range(p: Mapping[str, float], mode: str) -> str | None:
+    """λ^(T / t_ref) at least 0.5, λ's own range (FIXED's forgetting needs it)."""
+    lam = per_sample_lambda(p)
+    if lam < 0.5:
+        return (
+            f"lambda^(T / t_ref) = {lam:.4g} is below 0.5 per sample: lengthen t_ref or shorten T"
+        )
+    return None
+
+
 def a_positive_definite(p: Mapping[str, float], mode: str) -> str | None:
     """a11..a33 make A positive definite."""
     a = [[p["a11"], p["a12"], p["a13"]], [p["a12"], p["a22"], p["a23"]]]
@@ -348,7 +364,7 @@ class Rls:
             self.flags = (self.flags & ILL_CONDITIONED) | CLAMPED
             return np.array([self.theta[0], self.theta[1], grade_deg(self.theta, self.p)])
         psi, z = measured(u, self.p, self.prefilter)
-        lam = self.p["lambda"]
+        lam = per_sample_lambda(self.p)
         ppsi = self.P @ psi
         k = ppsi / (lam + psi @ ppsi)
         self.theta = self.theta + k * (z - psi @ self.theta)
@@ -405,9 +421,18 @@ RLS = register(
                 hi=1e4,
                 doc="ILL_CONDITIONED while a variance is above held_max times its P(0)",
             ),
+            Param(
+                "t_ref",
+                "s",
+                q=30,
+                default=0.0,
+                lo=0.0,
+                hi=1.0,
+                doc="0: λ per sample; > 0: λ per t_ref of time, λ^(T/t_ref) a step",
+            ),
             *SHARED_PARAMS,
         ),
-        rules=(no_fixed_prefilter,),
+        rules=(no_fixed_prefilter, lambda_within_range),
         modes=("F32", "FIXED"),
         paper="002-stlqf-hil-mega2560",
     )
