@@ -737,6 +737,9 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     console.print(f"report {md}")
     title = f"sweep {sc.name}: {len(result.drives)} drives on {result.board}"
     _write_results(args, sweep.cases(result), title, baseline, [result.out / "sweep.png"])
+    if result.stop_signal is not None:
+        console.print(f"[yellow]{result.stopped}[/]")
+        return 128 + result.stop_signal
     return 0
 
 

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import signal
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
@@ -24,7 +25,7 @@ from rich.table import Table
 from vehil import campaign, plants, record, runner
 from vehil.boards import Board
 from vehil.compare import Figures
-from vehil.errors import PlantLimit
+from vehil.errors import PlantLimit, Terminated
 from vehil.paths import runs_dir
 from vehil.perturb import Perturbation
 from vehil.protocol.schema import SCHEMA
@@ -81,6 +82,8 @@ class Sweep:
     nominal: Drive
     drives: list[Drive]
     out: Path
+    stopped: str | None = None  # why it ended before its last drive (Ctrl-C, SIGTERM)
+    stop_signal: int | None = None
 
     @staticmethod
     def _measures(d: Drive, name: str) -> dict[str, float | None]:
@@ -168,6 +171,7 @@ class Sweep:
                 for n, p in self.perturbations.items()
             },
             "matched": list(self.matched),
+            "stopped": self.stopped,
             "distributions": self.distributions(),
             "flags": self.flags(),
             "verdicts": self.verdicts(),
@@ -271,6 +275,7 @@ def run(
         if console is not None:
             console.print(escape(f"drive {i}/{drives}: {figures.verdict}"), highlight=False)
 
+    stopped, stop_signal = None, None
     if client is None:
         quiet = Console(quiet=True)
         figures = []
@@ -283,6 +288,19 @@ def run(
                     f"drive {i} ({drawn}): {exc}; narrow the sweep's ranges to what the plant "
                     "can model"
                 ) from None
+            except KeyboardInterrupt as exc:  # between two drives' samples
+                stop_signal = getattr(exc, "signum", signal.SIGINT)
+            else:
+                stop_signal = result.stop_signal
+            if stop_signal is not None:
+                if i < 2:  # no perturbed drive done: nothing to sum up
+                    raise Terminated(stop_signal)
+                stopped = (
+                    f"interrupted ({signal.Signals(stop_signal).name}) in drive {i}: "
+                    f"{i - 1} of {drives} perturbed drives done"
+                )
+                jobs = jobs[:i]
+                break
             figures.append(result.figures)
             said(i, result.figures)
     else:
@@ -299,7 +317,17 @@ def run(
         Drive(i, job.scenario.seed, draws[i], f, in_band_errors(job.scenario, job.recording))
         for i, (job, f) in enumerate(zip(jobs, figures, strict=True))
     ]
-    return Sweep(scenario, board_name, found, shared, found_drives[0], found_drives[1:], out)
+    return Sweep(
+        scenario,
+        board_name,
+        found,
+        shared,
+        found_drives[0],
+        found_drives[1:],
+        out,
+        stopped,
+        stop_signal,
+    )
 
 
 def cases(s: Sweep) -> list[Case]:
@@ -403,6 +431,7 @@ def write(s: Sweep) -> Path:
     lines = [
         f"# Sweep: {sc.name}",
         "",
+        *([f"**INTERRUPTED**: {s.stopped}; the figures cover those.", ""] if s.stopped else []),
         f"{sc.estimator.name} ({sc.mode}) on {s.board}, {len(s.drives)} perturbed drives "
         f"and the nominal one; plant {sc.plant}, drive i's noise seed {sc.seed} + i.",
         "",

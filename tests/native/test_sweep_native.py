@@ -105,3 +105,27 @@ def test_a_drive_the_plant_cannot_model_names_itself(built) -> None:  # noqa: AN
     found = sweep.perturbations(sc, {"iso_class": {"values": [8]}, "speed_kmh": {"values": [100]}})
     with pytest.raises(PlantLimit, match=r"drive 1 \(iso_class = 8, speed_kmh = 100\): .*road"):
         sweep.run(sc, found, 1, "native")
+
+
+def test_an_interrupted_sweep_sums_up_the_drives_it_did_and_says_so(
+    built,  # noqa: ANN001
+    tmp_path,  # noqa: ANN001
+    monkeypatch,  # noqa: ANN001
+) -> None:
+    from vehil import runner
+
+    real_run = runner.run
+
+    def ctrl_c_at_drive_3(sc, *args, **kwargs):  # noqa: ANN001, ANN002, ANN003, ANN202
+        if str(kwargs["recording"]).endswith("drive-003/run.arrow"):
+            raise KeyboardInterrupt
+        return real_run(sc, *args, **kwargs)
+
+    monkeypatch.setattr(runner, "run", ctrl_c_at_drive_3)
+    sc = dataclasses.replace(scenario.load("sweep-manf"), duration=0.05)
+    s = sweep.run(sc, sweep.perturbations(sc, {}), 6, out=tmp_path)
+    assert len(s.drives) == 2 and s.stop_signal == 2
+    assert s.stopped == "interrupted (SIGINT) in drive 3: 2 of 6 perturbed drives done"
+    md = sweep.write(s).read_text()
+    assert md.splitlines()[2].startswith("**INTERRUPTED**: interrupted (SIGINT) in drive 3")
+    assert json.loads((tmp_path / "sweep.json").read_text())["stopped"] == s.stopped
