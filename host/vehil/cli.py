@@ -26,7 +26,7 @@ from vehil.boards import (
     make_board,
     open_board,
 )
-from vehil.errors import NotComparable, Terminated, VehilError
+from vehil.errors import LinkError, NotComparable, Terminated, VehilError
 from vehil.link import BoardInfo, Link
 from vehil.paths import runs_dir
 from vehil.ping import PingSummary, run_ping
@@ -224,7 +224,8 @@ def ping_table(board: str, s: PingSummary) -> Table:
         t.add_row("per exchange, board clock (ms)", *(f"{v * 1e3:.3f}" for v in b.values()))
     t.caption = (
         f"wire limit {s.wire_limit_s * 1e3:.3f} ms for {s.wire_bytes:.0f} B at 10 bits/byte; "
-        f"p50 round trip = {rtt['p50'] / s.wire_limit_s:.2f} x wire limit; no loss"
+        f"p50 round trip = {rtt['p50'] / s.wire_limit_s:.2f} x wire limit; "
+        + (f"then lost: {s.lost}" if s.lost else "no loss")
     )
     if s.clock_backsteps:
         t.caption += (
@@ -330,8 +331,10 @@ def cmd_flash(args: argparse.Namespace) -> int:
 def cmd_ping(args: argparse.Namespace) -> int:
     with _connect(args) as link:
         _maybe_switch_baud(link, args.baud)
-        summary = run_ping(link, count=args.count, size=args.size, window=args.window)
+        summary = run_ping(link, count=args.count, size=args.size, window=args.window, partial=True)
         _show(args, ping_table(args.board, summary), _ping_figures(summary))
+    if summary.lost:
+        raise LinkError(f"the PINGs stopped after {summary.count:,} of {args.count:,}")
     return 0
 
 

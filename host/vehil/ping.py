@@ -22,6 +22,7 @@ class PingSummary:
     board_interval_s: np.ndarray  # board clock between consecutive PONGs
     clock_backsteps: int  # intervals left out because the board clock went backwards
     wire_bytes: float  # mean request + reply bytes on the wire
+    lost: str | None = None  # why the PINGs stopped before the count, if they did
 
     @property
     def wire_limit_s(self) -> float:
@@ -38,9 +39,17 @@ class PingSummary:
 
 
 def run_ping(
-    link: Link, *, count: int, size: int | None, window: int = 1, seed: int = 0
+    link: Link,
+    *,
+    count: int,
+    size: int | None,
+    window: int = 1,
+    seed: int = 0,
+    partial: bool = False,
 ) -> PingSummary:
-    """`count` PINGs with `size`-byte payloads (random sizes if None), checking every echo."""
+    """`count` PINGs with `size`-byte payloads (random sizes if None), checking every echo.
+    `partial`: a link error after some PINGs ends them, and the summary covers those
+    (`lost` says why) rather than raising."""
     assert link.info is not None
     rng = random.Random(seed)
     room = link.info.fields["max_body"] - 4  # the PONG adds a 4-byte timestamp
@@ -51,20 +60,26 @@ def run_ping(
     ]
     rtts, stamps, wire = [], [], []
     replies = link.pipeline((("PING", {"payload": p}) for p in payloads), window=window)
-    for i, (payload, reply) in enumerate(zip(payloads, replies, strict=True)):
-        fields = reply.fields()
-        if fields["payload"] != payload:
-            raise LinkError(f"PING {i}: the echo differs from the payload sent")
-        rtts.append(reply.rtt_s)
-        stamps.append(fields["timestamp"])
-        wire.append(reply.request_wire_bytes + reply.reply_wire_bytes)
+    lost = None
+    try:
+        for i, (payload, reply) in enumerate(zip(payloads, replies, strict=False)):
+            fields = reply.fields()
+            if fields["payload"] != payload:
+                raise LinkError(f"PING {i}: the echo differs from the payload sent")
+            rtts.append(reply.rtt_s)
+            stamps.append(fields["timestamp"])
+            wire.append(reply.request_wire_bytes + reply.reply_wire_bytes)
+    except LinkError as exc:
+        if not (partial and rtts):
+            raise
+        lost = str(exc)
     f_cpu = link.info.f_cpu
     # The stamp is a 32-bit cycle count: differences wrap. QEMU raises Timer1's overflow
     # a moment after the count wraps, so its clock can step back 65,536 cycles.
     steps = np.mod(np.diff(np.array(stamps, dtype=np.int64)) + 2**31, 2**32) - 2**31
     intervals = steps[steps >= 0] / f_cpu
     return PingSummary(
-        count=count,
+        count=len(rtts),
         payload_bytes=str(size) if size is not None else f"0..{room} random",
         window=window,
         baud=int(link.info.fields["baud"]),
@@ -73,4 +88,5 @@ def run_ping(
         board_interval_s=intervals,
         clock_backsteps=int((steps < 0).sum()),
         wire_bytes=float(np.mean(wire)),
+        lost=lost,
     )

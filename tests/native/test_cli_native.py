@@ -2,6 +2,7 @@
 
 import json
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -201,3 +202,16 @@ def test_a_folder_or_file_that_cannot_be_used_is_an_error_before_the_work(
     said = " ".join(capsys.readouterr().out.split())
     assert f"error: {error}".replace("FILE", str(file)).replace("NONE", paths["NONE"]) in said
     assert "samples" not in said and "Traceback" not in said  # refused before any run
+
+
+def test_pings_that_stop_on_a_lost_link_keep_the_figures_of_those_that_came_back(
+    built,  # noqa: ANN001
+    capsys,  # noqa: ANN001
+) -> None:
+    args = ["ping", "--board", "native", "--faults", "drop=0.05,seed=1", "--timeout", "0.1"]
+    assert cli.main([*args, "--count", "50"]) == 2
+    said = " ".join(capsys.readouterr().out.split())
+    done = re.search(r"native: (\d+) PINGs", said)
+    assert done and 0 < int(done[1]) < 50 and "round trip, host clock (ms)" in said
+    assert "then lost: no reply to PING" in said
+    assert said.endswith(f"error: the PINGs stopped after {done[1]} of 50")
