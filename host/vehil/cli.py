@@ -524,6 +524,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
     import tomllib
 
     from vehil import runner, scenario
+    from vehil.csvlog import LogError
 
     sc_path = scenario.find(args.scenario)
     data = tomllib.loads(sc_path.read_text())
@@ -545,7 +546,18 @@ def cmd_replay(args: argparse.Namespace) -> int:
     sc = scenario.parse(data, f"{sc_path} (replaying {log_path.name})", sc_path.resolve())
     recording = Path(args.out) / "run.arrow" if args.out else None
     board = _board(args)
-    run = runner.run(sc, board, realtime=args.realtime, recording=recording, timeout_s=args.timeout)
+    try:
+        run = runner.run(
+            sc, board, realtime=args.realtime, recording=recording, timeout_s=args.timeout
+        )
+    except LogError as exc:
+        unmapped = fmt != "vehil" and not log.get("columns")
+        if not unmapped or not any(f": no {w} " in str(exc) for w in ("column", "channel")):
+            raise
+        raise LogError(
+            f"{exc} ({sc_path.name} has no [log.columns] saying which column feeds each input "
+            f"of {sc.estimator.name}: docs/logs.md, 'Mapping inputs')"
+        ) from None
     title = f"replay of {log_path.name}: {sc.estimator.name} on {args.board}"
     return _finish_run(args, run, title, note)
 

@@ -123,3 +123,15 @@ def test_a_recording_replayed_with_another_estimator_s_scenario_says_whose_it_is
     assert cli.main([*args, "--board", "native"]) == 2
     said = " ".join(capsys.readouterr().out.split())
     assert "no column 'omega_f'; columns: t, y, truth.y (a run of passthrough: replay it" in said
+
+
+def test_a_log_replayed_with_a_scenario_that_maps_no_column_says_what_to_add(
+    built,  # noqa: ANN001
+    tmp_path,  # noqa: ANN001
+    capsys,  # noqa: ANN001
+) -> None:
+    log = tmp_path / "drive.csv"
+    log.write_text("t [s],speed [1]\n0,1\n0.1,2\n0.2,3\n")
+    assert cli.main(["replay", str(log), "--scenario", "sine", "--board", "native"]) == 2
+    said = " ".join(capsys.readouterr().out.split())
+    assert "drive.csv: no column 'y'; columns: 't', 'speed' (sine.toml has no [log.columns]" in said
