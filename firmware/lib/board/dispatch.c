@@ -81,6 +81,7 @@ static struct {
     estimator_t loaded;           /* the configured descriptor, copied from flash */
     uint8_t mode;
     uint16_t probe_cycles; /* cost of reading the cycle counter, subtracted from steps */
+    uint32_t frame_start;  /* the cycle count when the frame being handled began */
     uint16_t overruns_reported;
     count_t rx_frames, tx_frames; /* the STATS reply's, filled in when it is packed */
     msg_stats_t stats;
@@ -482,9 +483,12 @@ static void end_of_frame(frame_status_t st)
         const request_t req = {
             frame_type(&core.rx), frame_seq(&core.rx), frame_body_len(&core.rx), port_cycles(),
         };
+        /* The start kept for the sum in memory: the request's own copy then need not
+         * live across the handler, and a PONG's timestamp comes from registers. */
+        core.frame_start = req.at;
         count_up(&core.rx_frames);
         handle(req);
-        core.stats.frame_cycles += port_cycles() - req.at;
+        core.stats.frame_cycles += port_cycles() - core.frame_start;
     } else if (st == FRAME_OVERSIZE) {
         saturating_inc(&core.stats.oversize);
         send_error(unsolicited, ERR_OVERSIZE, FRAME_RAW_MAX);
