@@ -34,6 +34,7 @@
 #define C_GAMMA 28
 
 #include "fixmath/fx_step_avr.inc"
+#include "fixmath/fx_mul32x24.inc"
 
 ; T (r31:r30, r27:r26) <- the int32 at Y+off
 .macro LDT off
@@ -43,53 +44,6 @@
         ldd     r31, Y+\off+3
 .endm
 
-; a product's column sum: r1:r0 into lo, hi, the carry into c (z is 0)
-.macro COL lo, hi, c, z
-        add     \lo, r0
-        adc     \hi, r1
-        adc     \c, \z
-.endm
-
-;    P1..P6 (registers p1-p6) = a b 2^-8 for the unsigned a (four registers from a0) and b
-; (three from b0), by columns; with rnd given, rounded half up (P0's top bit into P1). z is
-; cleared for the column sums; r1 is left dirty.
-.macro MUL32X24 a0, b0, p1, p2, p3, p4, p5, p6, z, rnd
-        clr     \z
-        clr     \p2
-        clr     \p3
-        clr     \p4
-        clr     \p5
-        clr     \p6
-        mul     \a0, \b0
-        mov     \p1, r1
-        .ifnb   \rnd
-        lsl     r0
-        adc     \p1, \z
-        .endif
-        mul     \a0+1, \b0
-        COL     \p1, \p2, \p3, \z
-        mul     \a0, \b0+1
-        COL     \p1, \p2, \p3, \z
-        mul     \a0+2, \b0
-        COL     \p2, \p3, \p4, \z
-        mul     \a0+1, \b0+1
-        COL     \p2, \p3, \p4, \z
-        mul     \a0, \b0+2
-        COL     \p2, \p3, \p4, \z
-        mul     \a0+3, \b0
-        COL     \p3, \p4, \p5, \z
-        mul     \a0+2, \b0+1
-        COL     \p3, \p4, \p5, \z
-        mul     \a0+1, \b0+2
-        COL     \p3, \p4, \p5, \z
-        mul     \a0+3, \b0+1
-        COL     \p4, \p5, \p6, \z
-        mul     \a0+2, \b0+2
-        COL     \p4, \p5, \p6, \z
-        mul     \a0+3, \b0+2
-        add     \p5, r0
-        adc     \p6, r1        ; a b < 2^56: no carry out
-.endm
 ; P1..P7 += a b3 2^16: a 32 × 24 product's P taken to a 32 × 32 one's by b's fourth byte b3
 ; (z is 0; r1 is left dirty)
 .macro MUL32X8_HI a0, b3, p3, p4, p5, p6, p7, z

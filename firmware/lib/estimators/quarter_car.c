@@ -71,16 +71,35 @@ static int32_t times_x16(int32_t p, int16_t x)
     return x < 0 ? -r : r;
 }
 
+/* x 2^-5 rounded half up, in 24 bits (saturated past ±2^23, flagged): Δx Q28 -> Q23, ±1 m */
+static int32_t drop5_int24(int32_t x, uint8_t *status)
+{
+    if (x >= ((int32_t)1 << 28) - 16 || x < -((int32_t)1 << 28) - 16) {
+        *status |= STATUS_SATURATED;
+        return x < 0 ? -((int32_t)1 << 23) : ((int32_t)1 << 23) - 1;
+    }
+    return (x + 16) >> 5;
+}
+
+/* round(p x 2^-23), half up on p |x| with x's sign then applied (wrapping at p = INT32_MIN,
+ * x = -2^23 alone, as the AVR's negation does): |p x| 2^-23 <= |p|, no saturation. */
+static int32_t times_x24(int32_t p, int32_t x)
+{
+    uint32_t r = (uint32_t)(((int64_t)p * (x < 0 ? -x : x) + ((int64_t)1 << 22)) >> 23);
+    return (int32_t)(x < 0 ? 0u - r : r);
+}
+
 int32_t qcar_strut_over_kus_q_c(const qcar_q_t *m, int32_t dx, int32_t dv, uint8_t *status)
 {
-    int16_t x = drop12_int16(dx, status); /* m Q28 -> Q16 */
+    int32_t x = drop5_int24(dx, status);  /* m Q28 -> Q23 */
     int16_t v = drop12_int16(dv, status); /* m/s Q24 -> Q12 */
-    /* (k1 + Δx (k2 + k3 Δx)) Δx / k_us in Q20 (|Δx| <= 1/2 keeps each sum below 550) and
-     * (c1 + c2 Δẋ) Δẋ / k_us, the sum in Q24 (below 18 for |Δẋ| <= 8), then Q20 */
-    int32_t p = fx_add(m->s2, times_x16(m->s3, x), status);
-    p = fx_add(m->s1, times_x16(p, x), status);
+    /* (k1 + Δx (k2 + k3 Δx)) Δx / k_us in Q20 (|Δx| <= 1 keeps each sum below 1,400 over the
+     * parameters' ranges) and (c1 + c2 Δẋ) Δẋ / k_us, the sum in Q24 (below 18 for
+     * |Δẋ| <= 8), then Q20 */
+    int32_t p = fx_add(m->s2, times_x24(m->s3, x), status);
+    p = fx_add(m->s1, times_x24(p, x), status);
     int32_t d = fx_add(m->d1, times_x16(m->d2, v), status);
-    int32_t strut = fx_add(times_x16(p, x), times_x16(d, v), status);
+    int32_t strut = fx_add(times_x24(p, x), times_x16(d, v), status);
     return fx_rescale(strut, 20, 28, status);
 }
 

@@ -41,8 +41,8 @@ float qcar_strut_f32(const qcar_f32_t *m, float dx, float dv, uint8_t nonlinear_
 /* k2 Δx² + k3 Δx³ + c2 Δẋ² in fixed point: dx Q28 (m), dv Q24 (m/s) -> N Q16. */
 int32_t qcar_strut_nl_q(const qcar_q_t *m, int32_t dx, int32_t dv, uint8_t *status);
 /* (f_s + f_d)/k_us, the whole strut over the tire's rate, in metres Q28: the spring and
- * the damper by Horner's rule on Δx and Δẋ to 16 bits (Q16, ±0.5 m; Q12, ±8 m/s); Δx or
- * Δẋ past those ranges saturates (flagged). On the AVR an assembly routine
+ * the damper by Horner's rule on Δx to 24 bits (Q23, ±1 m) and Δẋ to 16 (Q12, ±8 m/s); Δx
+ * or Δẋ past those ranges saturates (flagged). On the AVR an assembly routine
  * (quarter_car_avr.S); the C twin gives the same bits on the host. */
 int32_t qcar_strut_over_kus_q_c(const qcar_q_t *m, int32_t dx, int32_t dv, uint8_t *status);
 #if defined(__AVR__)

@@ -1,22 +1,23 @@
 ; qcar_strut_over_kus_q for the AVR build: the strut over k_us in metres Q28 from Δx (Q28)
 ; and Δẋ (Q24), the same operations as the C twin qcar_strut_over_kus_q_c (quarter_car.c),
-; so the same bits: Δx and Δẋ to 16 bits (Q16, Q12, rounded half up, saturated), Horner's
-; rule on them (five products round(p |x| 2^-16), half up, then x's sign), the saturating
-; adds, then Q20 to Q28. Each product is fixmath's 32 × 16 MUL32X16 with p's sign
-; corrected in its top bytes (~55 cycles), where avr-gcc's two 16 × 16 products, their sums
-; and its moves cost ~95.
+; so the same bits: Δx to 24 bits (Q23) and Δẋ to 16 (Q12), rounded half up, saturated;
+; Horner's rule on them (products round(p |x| 2^-23) and round(p |v| 2^-16), half up, then
+; the sign), the saturating adds, then Q20 to Q28. Each product is fixmath's 32 × 24
+; MUL32X24 or 32 × 16 MUL32X16 with p's sign corrected in its top bytes (~75 and ~55
+; cycles), where avr-gcc's two 16 × 16 products, their sums and its moves cost ~95.
 ;
 ; avr-gcc's interface: m (qcar_q_t) in r25:r24, dx in r23:r20, dv in r19:r16, status in
 ; r15:r14; the strut in r25:r22. Saves r8-r13, r28, r29; r1 is left 0.
 
 #include "fixmath/fx_step_avr.inc"
+#include "fixmath/fx_mul32x24.inc"
 
 #define M_S1 22                 /* qcar_q_t's offsets (quarter_car.c checks them) */
 #define M_S2 26
 #define M_S3 30
 #define M_D1 34
 #define M_D2 38
-#define XSIGN r12               /* Δx's and Δẋ's 16-bit values' high bytes, for their signs */
+#define XSIGN r12               /* Δx's 24-bit and Δẋ's 16-bit values' high bytes, for their signs */
 #define VSIGN r13
 
 ; b1 (low), b2 (high) <- the int16 Δ 2^-12 rounded half up, for the int32 Δ in b0..b3 (b0 is
@@ -61,6 +62,79 @@
 1:
 .endm
 
+; b1..b3 <- the 24-bit Δ 2^-5 rounded half up, for the int32 Δ in b0..b3 (b0 below every
+; bit kept, and a scratch; b1-b3 in r16-r31), saturated past ±2^28 (flagged): u = Δ + 2^4 +
+; 2^28 is in range iff u < 2^29, and its bits 5..28, bit 28 flipped back, are the result.
+.macro DROP5 b0, b1, b2, b3
+        mov     r0, \b3        ; Δ's sign, should it saturate
+        subi    \b0, 0xf0      ; u = Δ + 2^4 + 2^28
+        sbci    \b1, 0xff
+        sbci    \b2, 0xff
+        sbci    \b3, 0xef
+        cpi     \b3, 0x20
+        brsh    8f
+        .rept   3               ; << 3: bits 5..28 in b1..b3
+        lsl     \b0
+        rol     \b1
+        rol     \b2
+        rol     \b3
+        .endr
+        subi    \b3, 0x80
+        rjmp    9f
+8:      ldi     \b1, 0xff      ; 2^23 - 1, or -2^23 when Δ < 0
+        ldi     \b2, 0xff
+        ldi     \b3, 0x7f
+        sbrs    r0, 7
+        rjmp    7f
+        ldi     \b1, 0x00
+        ldi     \b2, 0x00
+        ldi     \b3, 0x80
+7:      FLAG    14, \b0
+9:
+.endm
+
+; P (r26, r27, r30, r31) <- -P when the sign register's bit 7 is set
+.macro NEG_IF sgn
+        sbrs    \sgn, 7
+        rjmp    1f
+        com     r31
+        com     r30
+        com     r27
+        neg     r26
+        sbci    r27, 0xff
+        sbci    r30, 0xff
+        sbci    r31, 0xff
+1:
+.endm
+
+; P (r26, r27, r30, r31) <- round(p |x| 2^-23), half up, negated when XSIGN's bit 7 is set:
+; p in r25:r22 (kept), |x| in r20:r18 (kept). MUL32X24 takes p as unsigned; p < 0 counted
+; |x| 2^32 too many, taken off its top bytes. P1..P6 in r21, r26, r27, r30, r31, r17.
+.macro TIMES24
+        MUL32X24 22, 18, r21, r26, r27, r30, r31, r17, r16
+        clr     r1
+        sbrs    r25, 7
+        rjmp    1f
+        sub     r30, r18
+        sbc     r31, r19
+        sbc     r17, r20
+1:      subi    r26, 0xc0       ; + 2^22, then >> 23: bits 23..54 in r27, r30, r31, r17
+        sbci    r27, 0xff
+        sbci    r30, 0xff
+        sbci    r31, 0xff
+        sbci    r17, 0xff
+        lsl     r26
+        rol     r27
+        rol     r30
+        rol     r31
+        rol     r17
+        mov     r26, r27
+        mov     r27, r30
+        mov     r30, r31
+        mov     r31, r17
+        NEG_IF  XSIGN
+.endm
+
 ; P (r26, r27, r30, r31) <- round(p |x| 2^-16), half up, negated when the sign register's
 ; bit 7 is set: p in r25:r22 (kept), |x| in r21:r20 (kept). MUL32X16 takes p as unsigned;
 ; p < 0 counted |x| 2^32 too many, taken off its top bytes.
@@ -76,16 +150,7 @@
         sbci    r27, 0xff
         sbci    r30, 0xff
         sbci    r31, 0xff
-        sbrs    \sgn, 7
-        rjmp    2f
-        com     r31
-        com     r30
-        com     r27
-        neg     r26
-        sbci    r27, 0xff
-        sbci    r30, 0xff
-        sbci    r31, 0xff
-2:
+        NEG_IF  \sgn
 .endm
 
 ; p (r25:r22) <- the int32 at m + off, plus P, saturated (flagged)
@@ -111,21 +176,31 @@
 qcar_strut_over_kus_avr:
         PUSH_RANGE 8, 13, 28, 29
         movw    r28, r24        ; Y = m
-        DROP12  r20, r21, r22, r23      ; x = Δx Q28 -> Q16
-        mov     XSIGN, r22
-        ABS16   r21, r22
-        mov     r20, r21        ; |x|, where TIMES takes it
-        mov     r21, r22
         movw    r26, r16        ; v = Δẋ Q24 -> Q12, kept in r11:r10 for the damper
         DROP12  r26, r27, r18, r19
         mov     VSIGN, r18
         ABS16   r27, r18
         mov     r10, r27
         mov     r11, r18
-        ; the spring: ((s3 x + s2) x + s1) x, Q20
-        HORNER2 M_S3, M_S2, XSIGN
+        DROP5   r20, r21, r22, r23      ; x = Δx Q28 -> Q23
+        mov     XSIGN, r23
+        mov     r18, r21        ; |x| in r20:r18, where TIMES24 takes it
+        mov     r19, r22
+        mov     r20, r23
+        tst     r20
+        brpl    1f
+        com     r20
+        com     r19
+        neg     r18
+        sbci    r19, 0xff
+        sbci    r20, 0xff
+1:      ; the spring: ((s3 x + s2) x + s1) x, Q20
+        LDY     22, M_S3
+        TIMES24
+        LOAD_ADD M_S2
+        TIMES24
         LOAD_ADD M_S1
-        TIMES   XSIGN
+        TIMES24
         movw    r20, r10        ; |v|
         movw    r8, r26         ; the spring, kept
         movw    r10, r30
