@@ -1,5 +1,6 @@
 """Scenarios streamed through the firmware on simavr and QEMU: the product's regression."""
 
+import contextlib
 import threading
 
 import numpy as np
@@ -55,9 +56,14 @@ def test_a_board_that_dies_mid_run_fails_the_run_and_keeps_the_recording(tmp_pat
     sc = scenario.load("sine")
 
     def kill_when_running() -> None:
-        while board.process is None:
-            threading.Event().wait(0.01)
-        threading.Event().wait(1.5)
+        # Once samples are recorded, however long a loaded host took to get there: a fixed
+        # 1.5 s from the start killed the board before its first sample under load.
+        while True:
+            threading.Event().wait(0.05)
+            with contextlib.suppress(FileNotFoundError, record.RecordingError):
+                if len(record.read(tmp_path / "run.arrow")) > 0:
+                    break
+        assert board.process is not None
         board.process.proc.kill()
 
     threading.Thread(target=kill_when_running, daemon=True).start()
