@@ -190,6 +190,7 @@ class _Output:
         self.tol = tol
         self.ref = _Errors()
         self.outside = 0
+        self.checked = 0  # samples from the tolerance's from_s and from_samples on
         self.truth = _Errors() if has_truth else None
         self.ref_vs_truth = _Errors()
         self.mismatches: int | None = None
@@ -304,6 +305,7 @@ class Metrics:
                 checked = (t >= o.tol.from_s) & (ks >= o.tol.from_samples)
                 over = (np.abs(b - r) > o.tol.abs + o.tol.rel * np.abs(r)) & checked
                 o.outside += int(over.sum())
+                o.checked += int(checked.sum())
             if o.truth is not None:
                 true = truth[name][:n][scored]
                 o.truth.add(b[scored] - true, ks[scored])
@@ -342,7 +344,7 @@ class Metrics:
     def _output(self, name: str, native_board: bool) -> OutputFigures:
         o = self.outputs[name]
         tol = o.tol
-        if tol is not None and self.samples:
+        if tol is not None and o.checked:
             outside: int | None = o.outside
             ref_passed: bool | None = outside == 0
         else:

@@ -28,7 +28,9 @@ def verdict_cell(o: OutputFigures, figures: Figures) -> str:
     if o.passed is None:
         if o.reference.rmse is None:
             return "not checked (no samples)"
-        return "not checked" + (" (no tolerance)" if o.reference.tolerance is None else "")
+        if o.reference.tolerance is not None:
+            return "not checked (no sample from the tolerance's start on)"
+        return "not checked (no tolerance)"
     if o.passed is False:
         return "FAIL " + ", ".join(o.failed())
     words = "pass, bit-exact" if o.bit_exact is not None and o.bit_exact.passed else "pass"

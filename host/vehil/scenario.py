@@ -237,6 +237,14 @@ class _Checker:
         return dict(table.table)
 
 
+def _seed(sc: _Checker) -> int:
+    """The noise seed: a whole number (1.5 would be cut to 1, the drive of another seed)."""
+    seed = sc.number("seed", 0, lo=0, hi=2**32 - 1)
+    if seed != int(seed):
+        raise sc.fail("seed", f"must be a whole number, got {seed:g}")
+    return int(seed)
+
+
 def _numbers(table: _Checker) -> dict[str, float]:
     return {k: table.number(k) for k in table.table}
 
@@ -410,6 +418,15 @@ def parse(data: dict[str, Any], where: str, path: Path | None = None) -> Scenari
         # A log runs to its end unless the scenario cuts it shorter.
         duration = sc.number("duration", lo=sample_time) if "duration" in sc.table else math.inf
     signals = top.mapping("signals", inputs, "estimator input")
+    if plant_name is not None:  # each input from a signal the plant measures
+        gives = [g.name for g in known_plants[plant_name].signals]
+        for name in inputs:
+            if signals.get(name, name) not in gives:
+                mapped = f"signals.{name} = {signals[name]!r}" if name in signals else "input"
+                raise ScenarioError(
+                    f"{where}: {mapped}: plant {plant_name} measures no such signal; it gives "
+                    f"{', '.join(gives)}: map {spec.name}'s {name} to one in [signals]"
+                )
 
     tol_t = top.sub("tolerance")
     tolerances = {}
@@ -429,6 +446,13 @@ def parse(data: dict[str, Any], where: str, path: Path | None = None) -> Scenari
             bit_exact=bit_exact,
             truth_rms=t.number("truth_rms", lo=0.0) if "truth_rms" in t.table else None,
         )
+        start = max(tolerances[name].from_s, tolerances[name].from_samples * sample_time)
+        if start >= duration:
+            raise t.fail(
+                "from_s" if "from_s" in t.table else "from_samples",
+                f"starts at {start:g} s, where the drive has ended ({duration:g} s): "
+                "nothing would be checked",
+            )
     score_from_s = sc.number("score_from_s", 0.0, lo=0.0)
     if score_from_s >= duration:
         raise sc.fail(
@@ -448,7 +472,7 @@ def parse(data: dict[str, Any], where: str, path: Path | None = None) -> Scenari
         title=sc.text("title", ""),
         duration=duration,
         sample_time=sample_time,
-        seed=int(sc.number("seed", 0, lo=0, hi=2**32 - 1)),
+        seed=_seed(sc),
         estimator=spec,
         mode=mode,
         params=params,

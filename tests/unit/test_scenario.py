@@ -67,6 +67,19 @@ def test_a_good_scenario_loads_with_defaults_filled_in() -> None:
             r"scenario.score_from_s: 1 s leaves nothing to score: the drive lasts 1 s",
         ),
         (lambda d: d["scenario"].update(score_from_s=-1), r"scenario.score_from_s: -1 is outside"),
+        (lambda d: d["scenario"].update(seed=1.5), r"scenario.seed: must be a whole number, got"),
+        (
+            lambda d: d["tolerance"]["y"].update(from_s=5),
+            r"tolerance.y.from_s: starts at 5 s, where the drive has ended \(1 s\): nothing",
+        ),
+        (
+            lambda d: d["tolerance"]["y"].update(from_samples=100),
+            r"tolerance.y.from_samples: starts at 1 s, where the drive has ended",
+        ),
+        (
+            lambda d: d.update(signals={"y": "speed"}),
+            r"signals.y = 'speed': plant noisy_sine measures no such signal; it gives y: map",
+        ),
     ],
 )
 def test_mistakes_are_named(change, message) -> None:  # noqa: ANN001

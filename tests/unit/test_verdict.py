@@ -223,3 +223,11 @@ def test_a_real_time_run_s_late_results_are_in_its_verdict() -> None:
     figures = compare.evaluate(dataclasses.replace(s, late=late))
     assert str(figures.verdict) == "PASS: 20 of 20 samples checked; 3 late"
     assert str(compare.evaluate(s).verdict) == "PASS: 20 of 20 samples checked"
+
+
+def test_a_tolerance_that_starts_after_the_last_sample_checked_nothing(tmp_path) -> None:  # noqa: ANN001
+    s = series(np.ones(20), np.ones(20), {"y": Tolerance(abs=0.1, from_s=5.0)})
+    md, data, figures = written(s, tmp_path)
+    assert data["outputs"]["y"]["reference"]["passed"] is None
+    assert "not checked (no sample from the tolerance's start on)" in row(md, "y")
+    assert figures.verdict.word == "NOT CHECKED" and figures.verdict.exit_status == 1
