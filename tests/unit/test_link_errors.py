@@ -69,3 +69,24 @@ def test_a_lost_sample_is_named_by_its_index_and_why_it_was_not_sent_again() -> 
     )
     lost.seq = 7
     assert lost.describe() == "SAMPLE seq 7 (sample 2584)"
+
+
+def test_a_serial_port_with_no_vehil_board_says_what_to_check(monkeypatch) -> None:  # noqa: ANN001
+    from vehil.boards.base import BoardOptions
+    from vehil.boards.serialport import SerialBoard
+
+    host, board = os.openpty()  # a port nothing answers on
+    name = os.ttyname(board)
+    target = SerialBoard(name, BoardOptions(timeout_s=0.05))
+    monkeypatch.setattr(target, "ready_timeout_s", 0.1)
+    port = serial.Serial(name, timeout=0.01)
+    try:
+        with pytest.raises(BoardTimeout) as exc:
+            target.wait_ready(Link(port, timeout_s=0.05, retries=0))
+    finally:
+        port.close()
+        os.close(host)
+        os.close(board)
+    said = str(exc.value)
+    assert said.startswith(f"{name}: no ready frame within 0 s after opening at 1000000 baud")
+    assert "--baud switches it only once connected" in said and "vehil flash" in said

@@ -64,7 +64,8 @@ class SerialBoard(Board):
             except BoardTimeout:
                 raise BoardTimeout(
                     f"{self.port}: no ready frame within {self.ready_timeout_s:.0f} s after "
-                    f"opening at {self.baud} baud, and no answer to HELLO. Tried: waiting "
-                    "for the boot frame, then HELLO. Check the baud rate (--baud), that the "
-                    "vehil firmware is flashed (`vehil flash`), and the cable."
+                    f"opening at {self.baud} baud, and no answer to HELLO. The link opens at "
+                    "the firmware's boot rate (--baud switches it only once connected): "
+                    "check that this is the board's port, that the vehil firmware is flashed "
+                    "(`vehil flash`), and the cable."
                 ) from None
