@@ -374,11 +374,7 @@ def _open_recording(path_str: str):  # noqa: ANN202
     from vehil import record
 
     path = Path(path_str)
-    if path.is_dir():
-        path = path / "run.arrow"
-    if not path.exists():
-        raise record.RecordingError(f"{path}: no such recording (give run.arrow or its folder)")
-    return record.read(path)
+    return record.read(path / "run.arrow" if path.is_dir() else path)
 
 
 def _finish_run(

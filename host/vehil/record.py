@@ -178,6 +178,8 @@ class Reader:
 
     def __init__(self, path: Path):
         self.path = Path(path)
+        if not self.path.is_file():
+            raise RecordingError(f"{path}: no such recording (give a run.arrow or its folder)")
         try:
             self._reader = ipc.open_stream(pa.OSFile(str(path), "rb"))
         except (OSError, pa.ArrowInvalid) as exc:

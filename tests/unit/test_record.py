@@ -99,3 +99,10 @@ print(sorted(set(sys.modules) - before))
         [sys.executable, "-c", script], capture_output=True, text=True, check=True
     ).stdout
     assert out.strip() == "[]"
+
+
+def test_a_recording_that_is_not_there_is_named_as_missing(tmp_path) -> None:  # noqa: ANN001
+    with pytest.raises(record.RecordingError, match=r"none.arrow: no such recording \(give a"):
+        record.read(tmp_path / "none.arrow")
+    with pytest.raises(record.RecordingError, match=r": no such recording"):
+        record.read(tmp_path)  # a folder with no run.arrow in it, given as the file
