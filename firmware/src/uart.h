@@ -5,14 +5,15 @@
  * they would cost more than a byte's time, a byte each way (UART_RX_ISR_CYCLES +
  * UART_TX_ISR_CYCLES, 83, against 80 cycles at 2 Mbaud): there the frame path's loops
  * (frame_avr.S), through which every byte of a request and of its reply goes, run
- * with interrupts off and do that work at a service point a byte (uart_serve.inc:
+ * with interrupts off and do that work at their service points (uart_serve.inc:
  * UART_POLL, SERVE_STUB), for a fraction of an interrupt's cycles: for the call, the
  * rings' indices and the interrupt enables are in registers (POLLED_BEGIN), so a
  * service point's test is the interrupts' own condition read from a register, and the
  * enables are written back at the end (POLLED_END) with I set back as it was: a byte
- * is taken or sent by exactly one of them. The loops' service points are ~35-45
- * cycles apart, well within the two byte times (160 cycles at 2 Mbaud) the
- * receiver holds bytes for; between the loops, and below 2 Mbaud, the interrupts
+ * is taken or sent by exactly one of them. The service points are ~35-72 cycles apart
+ * (every second byte in the request's and the PONG's loops), within the byte time
+ * (80 cycles at 2 Mbaud) UDR0 holds a byte for and the three byte times the receiver
+ * holds bytes for; between the loops, and below 2 Mbaud, the interrupts
  * serve, so the idle wait, a step and every other handler run as before. (Polling at
  * 1 Mbaud was measured only on simavr's own UART timing, where it cost ~8 %: that UDR0
  * is not double-buffered, so a service point's latency added to every byte's time.) */
