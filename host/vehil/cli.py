@@ -539,6 +539,9 @@ def cmd_replay(args: argparse.Namespace) -> int:
     data.pop("plant", None)
     data["log"] = log
     data.setdefault("scenario", {}).pop("duration", None)
+    # A closed loop's recording holds the inputs its plant measured: replayed, they are fed
+    # as they were, open loop (the board's outputs no longer steer a plant).
+    data["scenario"].pop("closed_loop", None)
     sc = scenario.parse(data, f"{sc_path} (replaying {log_path.name})", sc_path.resolve())
     recording = Path(args.out) / "run.arrow" if args.out else None
     board = _board(args)

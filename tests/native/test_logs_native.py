@@ -135,3 +135,20 @@ def test_a_log_replayed_with_a_scenario_that_maps_no_column_says_what_to_add(
     assert cli.main(["replay", str(log), "--scenario", "sine", "--board", "native"]) == 2
     said = " ".join(capsys.readouterr().out.split())
     assert "drive.csv: no column 'y'; columns: 't', 'speed' (sine.toml has no [log.columns]" in said
+
+
+def test_a_closed_loop_s_recording_replays_open_loop_to_the_same_outputs(
+    built,  # noqa: ANN001
+    tmp_path,  # noqa: ANN001
+    capsys,  # noqa: ANN001
+) -> None:
+    short = tmp_path / "s5.toml"
+    s5 = (DATA_ROOT / "scenarios/eso/s5-iso-active-eso.toml").read_text()
+    short.write_text(s5.replace("duration = 20.0", "duration = 0.5"))
+    assert "closed_loop = true" in s5 and "duration = 20.0" in s5
+    assert cli.main(["run", str(short), "--board", "native", "--out", str(tmp_path / "a")]) == 0
+    again = ["replay", str(tmp_path / "a"), "--scenario", str(short), "--board", "native"]
+    assert cli.main([*again, "--out", str(tmp_path / "b")]) == 0
+    capsys.readouterr()
+    assert cli.main(["compare", str(tmp_path / "a"), str(tmp_path / "b")]) == 0
+    assert "same results" in capsys.readouterr().out
