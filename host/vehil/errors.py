@@ -45,6 +45,10 @@ class PlantLimit(VehilError):
     """A plant driven past what its model can simulate: it says so instead of going NaN."""
 
 
+class NotInImage(VehilError):
+    """The board's firmware image does not hold the estimator asked for."""
+
+
 class NotComparable(VehilError):
     """Two recordings that are not runs of one drive."""
 

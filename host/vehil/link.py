@@ -24,7 +24,14 @@ from typing import Any
 
 import serial
 
-from vehil.errors import BoardError, BoardReset, BoardTimeout, LinkError, ProtocolMismatch
+from vehil.errors import (
+    BoardError,
+    BoardReset,
+    BoardTimeout,
+    LinkError,
+    NotInImage,
+    ProtocolMismatch,
+)
 from vehil.protocol import frame as framing
 from vehil.protocol.schema import SCHEMA
 
@@ -131,7 +138,11 @@ class BoardInfo:
             if e.name == name:
                 return e
         built = ", ".join(e.name for e in self.estimators) or "none"
-        raise LinkError(f"estimator {name!r} is not built into this firmware (built in: {built})")
+        raise NotInImage(
+            f"estimator {name!r} is not built into this firmware (built in: {built}): run it "
+            "on a board whose image holds it (simavr-ev and qemu-ev hold the EV filters), or "
+            "build one that does (platformio.ini's custom_estimators, a project's vehil.toml)"
+        )
 
 
 def config_requests(

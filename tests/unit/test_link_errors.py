@@ -90,3 +90,16 @@ def test_a_serial_port_with_no_vehil_board_says_what_to_check(monkeypatch) -> No
     said = str(exc.value)
     assert said.startswith(f"{name}: no ready frame within 0 s after opening at 1000000 baud")
     assert "--baud switches it only once connected" in said and "vehil flash" in said
+
+
+def test_an_estimator_the_image_lacks_is_not_a_lost_board_and_says_where_it_is() -> None:
+    from vehil.errors import LinkError, NotInImage
+    from vehil.link import BoardInfo, EstimatorInfo
+
+    info = BoardInfo({}, (EstimatorInfo(0, 20, "manf", ("F32",), 2, 2, 10),))
+    with pytest.raises(NotInImage) as exc:
+        info.estimator("ev_ekf")
+    assert not isinstance(exc.value, LinkError)  # the runner reports no "board lost"
+    said = str(exc.value)
+    assert said.startswith("estimator 'ev_ekf' is not built into this firmware (built in: manf)")
+    assert "simavr-ev and qemu-ev" in said
