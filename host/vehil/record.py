@@ -36,6 +36,9 @@ FORMAT = "vehil-run/1"
 BATCH_ROWS = 1000
 
 
+_IPC_START = b"\xff\xff\xff\xff"  # an Arrow IPC stream's first message marker
+
+
 class RecordingError(VehilError):
     """A recording cannot be read: the message says where it broke."""
 
@@ -183,7 +186,10 @@ class Reader:
         try:
             self._reader = ipc.open_stream(pa.OSFile(str(path), "rb"))
         except (OSError, pa.ArrowInvalid) as exc:
-            raise RecordingError(f"{path}: not a vehil recording ({exc})") from None
+            with open(path, "rb") as f:
+                cut = f.read(4) == _IPC_START  # an Arrow stream that ends in its header
+            what = "cut short in its header, before any sample" if cut else "not a vehil recording"
+            raise RecordingError(f"{path}: {what} ({exc})") from None
         meta = self._reader.schema.metadata or {}
         if b"vehil" not in meta:
             raise RecordingError(f"{path}: an Arrow stream, but without vehil's header")

@@ -106,3 +106,14 @@ def test_a_recording_that_is_not_there_is_named_as_missing(tmp_path) -> None:  #
         record.read(tmp_path / "none.arrow")
     with pytest.raises(record.RecordingError, match=r": no such recording"):
         record.read(tmp_path)  # a folder with no run.arrow in it, given as the file
+
+
+def test_a_recording_cut_in_its_header_says_so(tmp_path) -> None:  # noqa: ANN001
+    path = tmp_path / "run.arrow"
+    write(path, 10)
+    path.write_bytes(path.read_bytes()[:100])
+    with pytest.raises(record.RecordingError, match=r"cut short in its header, before any sample"):
+        record.read(path)
+    path.write_text("t,y\n0,1\n")
+    with pytest.raises(record.RecordingError, match=r"run.arrow: not a vehil recording"):
+        record.read(path)
