@@ -7,11 +7,9 @@
 #include <util/atomic.h>
 
 #include "cycles.h"
+#include "uart.h"
 
 static inline uint32_t port_cycles(void) { return cycles_now(); }
-
-/* uart.c's count of received bytes dropped for a full ring (uart_isr.S counts them). */
-extern volatile uint16_t uart_rx_lost;
 
 static inline uint16_t port_rx_overruns(void)
 {

@@ -93,10 +93,3 @@ void uart_flush(void)
 }
 
 uint32_t uart_baud(void) { return current_baud; }
-
-uint16_t uart_rx_overruns(void)
-{
-    uint16_t n;
-    ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { n = uart_rx_lost; }
-    return n;
-}

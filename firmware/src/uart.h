@@ -70,7 +70,9 @@ void uart_flush(void);
 uint32_t uart_baud(void);
 /* UBRR for baud with U2X, or -1 if out of range. */
 int32_t uart_ubrr(uint32_t baud);
-uint16_t uart_rx_overruns(void);
+/* Received bytes dropped for a full ring or lost by the receiver (uart_isr.S counts them,
+ * saturating); port_inline.h reads it. */
+extern volatile uint16_t uart_rx_lost;
 
 #endif /* __ASSEMBLER__ */
 
