@@ -16,7 +16,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from vehil.estimators import register
-from vehil.estimators.base import EstimatorSpec, Param, Signal
+from vehil.estimators.base import EstimatorSpec, Param, Signal, t_ref_param
 
 R_W = 0.27  # Table 2
 
@@ -135,14 +135,8 @@ SPEC = register(
             Param("a", "m/s^2", q=24, default=8.0, lo=0.1, hi=100.0, doc="tolerable accel"),
             Param("printed_sign", "1", q=0, default=0, lo=0, hi=1, doc="1: eq. 44's sign"),
             Param("reading", "1", q=0, default=0, lo=0, hi=1, doc="0: T R_g (B), 1: R_g (A)"),
-            Param(
-                "t_ref",
-                "s",
-                q=30,
-                default=0.0,
-                lo=0.0,
-                hi=1.0,
-                doc="0: γ, ξ per sample (the paper); > 0: per t_ref, as γ^(T/t_ref), ξ^(T/t_ref)",
+            t_ref_param(
+                "0: γ, ξ per sample (the paper); > 0: per t_ref, as γ^(T/t_ref), ξ^(T/t_ref)"
             ),
         ),
         rules=(gamma_within_range,),

@@ -46,7 +46,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from vehil.estimators import register
-from vehil.estimators.base import EstimatorSpec, Param, Signal
+from vehil.estimators.base import EstimatorSpec, Param, Signal, t_ref_param
 
 WL = 5
 WINDOW = 2 * WL + 1
@@ -421,15 +421,7 @@ RLS = register(
                 hi=1e4,
                 doc="ILL_CONDITIONED while a variance is above held_max times its P(0)",
             ),
-            Param(
-                "t_ref",
-                "s",
-                q=30,
-                default=0.0,
-                lo=0.0,
-                hi=1.0,
-                doc="0: λ per sample; > 0: λ per t_ref of time, λ^(T/t_ref) a step",
-            ),
+            t_ref_param("0: λ per sample; > 0: λ per t_ref of time, λ^(T/t_ref) a step"),
             *SHARED_PARAMS,
         ),
         rules=(no_fixed_prefilter, lambda_within_range),
