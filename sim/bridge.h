@@ -149,6 +149,7 @@ void reset_chip(avr_t *avr);
 void watch_pty_opens(const char *ptyname);
 
 /* uart_timing.c */
+extern int g_rx_busy;
 int uart_timing_setup(avr_t *avr, avr_uart_t *uart);
 void uart_timing_rx_start(avr_t *avr);
 

@@ -31,7 +31,7 @@ static avr_uart_t *u;
 static int shifting;		/* the shift register holds a frame */
 static int udr_full;		/* a byte waits in UDR0 for the shift register */
 static uint8_t udr;
-static int receiving;		/* a client byte is on its way in: its frame ends on a timer */
+int g_rx_busy;			/* a client byte is on its way in: its frame ends on a timer */
 #define RX_HELD 3		/* unread bytes the receiver holds: its buffer's two, the shift register's */
 static void (*core_reset)(avr_t *avr);
 
@@ -127,7 +127,7 @@ static avr_cycle_count_t rx_frame_end(avr_t *avr, avr_cycle_count_t when, void *
 	(void)param;
 	int byte = avr_regbit_get(avr, u->rxen) ? rx_take() : -1;
 	if (byte < 0) {
-		receiving = 0;
+		g_rx_busy = 0;
 		return 0;
 	}
 	if (uart_fifo_get_read_size(&u->input) < RX_HELD) {
@@ -140,15 +140,15 @@ static avr_cycle_count_t rx_frame_end(avr_t *avr, avr_cycle_count_t when, void *
 		rx_started();
 		return when + frame_cycles(avr);	/* back to back: from the last frame's end */
 	}
-	receiving = 0;
+	g_rx_busy = 0;
 	return 0;
 }
 
 void uart_timing_rx_start(avr_t *avr)
 {
-	if (receiving)
+	if (g_rx_busy)
 		return;
-	receiving = 1;
+	g_rx_busy = 1;
 	rx_started();
 	avr_cycle_timer_register(avr, frame_cycles(avr), rx_frame_end, NULL);
 }
@@ -174,7 +174,7 @@ static void uart_timing_reset(avr_t *avr)
 		core_reset(avr);
 	avr_cycle_timer_cancel(avr, frame_end, NULL);
 	avr_cycle_timer_cancel(avr, rx_frame_end, NULL);
-	shifting = udr_full = receiving = 0;
+	shifting = udr_full = g_rx_busy = 0;
 }
 
 int uart_timing_setup(avr_t *avr, avr_uart_t *uart)

@@ -437,7 +437,7 @@ int main(int argc, char **argv)
 			}
 		}
 
-		if (!g_uart_xoff && rx_pending())
+		if (!g_uart_xoff && !g_rx_busy && rx_pending())	/* checked every instruction */
 			feed_uart();
 
 		if (out_len && (out_flush_now || avr->cycle - out_last_cycle > 2 * (g_uart ? g_uart->cycles_per_byte : 512)))
