@@ -17,7 +17,7 @@ def test_a_spec_becomes_a_url_and_bad_specs_name_the_problem() -> None:
         parse_spec("dup=often")
 
 
-def test_faults_are_seeded_counted_and_only_after_arming() -> None:
+def test_faults_are_seeded_counted_and_only_while_armed() -> None:
     def broken(seed: int) -> tuple[bytes, dict]:
         port = serial.serial_for_url(
             wrap_url("loop://", f"flip=0.05,drop=0.05,seed={seed}"), timeout=0.1
@@ -28,6 +28,10 @@ def test_faults_are_seeded_counted_and_only_after_arming() -> None:
         port.write(bytes(range(200)))
         out = port.read(400)
         counts = dict(port.counts)
+        port.disarm()
+        port.write(bytes(range(200)))
+        assert port.read(200) == bytes(range(200))
+        assert dict(port.counts) == counts
         port.close()
         assert clean == bytes(range(200))
         return out, counts

@@ -8,7 +8,8 @@ holds each write back; `reboot_after` slips a reboot request in after that many
 writes, once (a board reset mid-run). It is AUTOSAR E2E's fault model at the byte level: what the
 link must detect and never turn into a wrong accepted result. `counts` says what
 was injected. Faults start when `arm()` is called (boards arm it once the session
-is up), so a run can be broken on purpose without breaking its start.
+is up), so a run can be broken on purpose without breaking its start; `disarm()` ends
+them, so what the board counted can be read after.
 
 `wrap_url(url, spec)` builds the URL; spec is `drop=1e-3,flip=1e-3,seed=7`.
 """
@@ -106,6 +107,10 @@ class Serial(WrappingSerial):
 
     def arm(self) -> None:
         self.armed = True
+
+    def disarm(self) -> None:
+        """Bytes pass unbroken from here on (a measurement read after the faulty run)."""
+        self.armed = False
 
     def _reconfigure_port(self) -> None:
         super()._reconfigure_port()
