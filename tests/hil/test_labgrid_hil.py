@@ -232,3 +232,20 @@ def test_avrdude_programs_through_the_place(lab: Lab, tmp_path: Path) -> None:
     finally:
         board.stop()
     assert result.bytes == 256
+
+
+def test_vehil_flash_to_a_place_the_coordinator_lacks_stops_before_building(
+    lab: Lab,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    from vehil import cli
+
+    def build(*_: object) -> None:
+        raise AssertionError("an image was built for a place that does not exist")
+
+    monkeypatch.setattr(flash, "firmware_hex", build)
+    monkeypatch.setenv("LG_COORDINATOR", lab.address)
+    assert cli.main(["flash", "--board", "labgrid:mega-z"]) == 2
+    said = " ".join(capsys.readouterr().out.split())
+    assert f"no labgrid place 'mega-z' at {lab.address} (places: mega-a, mega-b)" in said

@@ -113,3 +113,21 @@ def test_vehil_flash_refuses_a_bad_target_before_building_an_image(
     monkeypatch.setattr(flash, "firmware_hex", build)
     assert cli.main(["flash", *args]) == 2
     assert error in " ".join(capsys.readouterr().out.split())
+
+
+def test_vehil_flash_to_a_labgrid_place_finds_the_coordinator_down_before_building(
+    monkeypatch,  # noqa: ANN001
+    capsys,  # noqa: ANN001
+) -> None:
+    from vehil import cli
+
+    coordinator = "127.0.0.1:9"  # the discard port: nothing listens there
+
+    def build(*_: object) -> None:
+        raise AssertionError("an image was built for a place whose coordinator is down")
+
+    monkeypatch.setattr(flash, "firmware_hex", build)
+    monkeypatch.setenv("LG_COORDINATOR", coordinator)
+    assert cli.main(["flash", "--board", "labgrid:mega-a"]) == 2
+    said = " ".join(capsys.readouterr().out.split())
+    assert f"cannot reach the labgrid coordinator at {coordinator}" in said

@@ -201,6 +201,16 @@ class LabgridBoard(SerialBoard):
         self._usage: dict[str, Any] = {}  # this use, for the usage log
         self._held_since: float | None = None
 
+    def check(self) -> None:
+        """The coordinator answers and knows the place: refused before anything is built."""
+        coordinator = Coordinator.attach(self.coordinator_address)
+        try:
+            self.coordinator = coordinator
+            self._known_place()
+        finally:
+            self.coordinator = None
+            coordinator.detach()
+
     # -- acquire and release -----------------------------------------------
 
     def start(self) -> str:
