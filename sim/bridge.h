@@ -62,6 +62,7 @@ struct options {
 	const char *profile;		/* --profile FILE; NULL: off */
 	const char *profile_map;	/* the functions' address ranges */
 	const char *profile_window;	/* ranges that open a window; NULL: the run */
+	const char *profile_window_end;	/* ranges that close it; NULL: leaving those */
 	const char *timing;		/* --timing FILE; NULL: off */
 	int simavr_uart;		/* --uart simavr: simavr's own UART0 timing */
 };

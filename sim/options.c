@@ -64,6 +64,8 @@ void usage(FILE *f)
 "  --profile-window R count only from the PC entering ranges R\n"
 "                     (LO-HI[,LO-HI...], hex) until it leaves them in that\n"
 "                     frame; default: the whole run, cut by SIGUSR1\n"
+"  --profile-window-end R  with --profile-window: close the window when its\n"
+"                     outermost frame reaches ranges R instead\n"
 "  --timing FILE      with --realtime: log each batch of client bytes fed to\n"
 "                     the UART and each write to the client, with the wall\n"
 "                     clock and simulated time (see sim/README.md)\n"
@@ -95,7 +97,7 @@ static int parse_u64(const char *s, uint64_t *v)
 void parse_args(int argc, char **argv)
 {
 	enum { O_TCP = 256, O_UNIX, O_PTY, O_MCU, O_FREQ, O_RT, O_LIMIT, O_VCD, O_GDB, O_DELAY, O_BOOT, O_IMAGE,
-		O_PROFILE, O_PROFILE_MAP, O_PROFILE_WINDOW, O_TIMING, O_UART };
+		O_PROFILE, O_PROFILE_MAP, O_PROFILE_WINDOW, O_PROFILE_END, O_TIMING, O_UART };
 	static const struct option lo[] = {
 		{ "tcp", required_argument, NULL, O_TCP },
 		{ "unix", required_argument, NULL, O_UNIX },
@@ -112,6 +114,7 @@ void parse_args(int argc, char **argv)
 		{ "profile", required_argument, NULL, O_PROFILE },
 		{ "profile-map", required_argument, NULL, O_PROFILE_MAP },
 		{ "profile-window", required_argument, NULL, O_PROFILE_WINDOW },
+		{ "profile-window-end", required_argument, NULL, O_PROFILE_END },
 		{ "timing", required_argument, NULL, O_TIMING },
 		{ "uart", required_argument, NULL, O_UART },
 		{ "verbose", no_argument, NULL, 'v' },
@@ -194,6 +197,9 @@ void parse_args(int argc, char **argv)
 		case O_PROFILE_WINDOW:
 			opt.profile_window = optarg;
 			break;
+		case O_PROFILE_END:
+			opt.profile_window_end = optarg;
+			break;
 		case O_TIMING:
 			opt.timing = optarg;
 			break;
@@ -244,6 +250,10 @@ void parse_args(int argc, char **argv)
 	}
 	if (!opt.profile && (opt.profile_map || opt.profile_window)) {
 		diag("--profile-map and --profile-window need --profile FILE");
+		exit(EXIT_USAGE);
+	}
+	if (opt.profile_window_end && !opt.profile_window) {
+		diag("--profile-window-end says where a window closes: it needs --profile-window");
 		exit(EXIT_USAGE);
 	}
 	if (opt.timing && !opt.realtime) {

@@ -7,8 +7,10 @@
  * bridge knows no symbols.  A window opens when the PC enters one of those
  * ranges, and closes when it leaves them in the frame it entered from (an
  * estimator's step: the range is the call instruction, and the window is the
- * call with all it does).  Without --profile-window the whole run is one
- * window, cut into the next one by SIGUSR1.
+ * call with all it does); with --profile-window-end, when its outermost frame
+ * reaches one of those ranges instead (code marks around inlined code, whose
+ * instructions the compiler interleaves with its caller's).  Without
+ * --profile-window the whole run is one window, cut into the next one by SIGUSR1.
  *
  * A shadow call stack follows CALL/RCALL/ICALL/EICALL and RET; an interrupt
  * entered is a frame of its own (a marker node for its vector, its code
@@ -64,6 +66,7 @@ static struct {
 	uint32_t *func_of;	/* per flash word */
 	uint32_t n_funcs;	/* the map's length: also the id of "no function" */
 	uint8_t *opens;		/* per flash word: in a window range */
+	uint8_t *ends;		/* per flash word: closes the window; NULL: leaving opens */
 	int run_window;		/* no ranges: the whole run, cut by SIGUSR1 */
 	uint64_t *pc_cycles;	/* per flash word, all windows */
 	uint32_t n_words;
@@ -158,6 +161,15 @@ static void close_window(const char *how)
 	P.windows++;
 }
 
+/* Whether the window's outermost frame, going on to pc, leaves the window. */
+static int window_ends(avr_flashaddr_t pc)
+{
+	int in = pc >> 1 < P.n_words;
+	if (P.ends)
+		return in && P.ends[pc >> 1];
+	return !(in && P.opens[pc >> 1]) && func_at(pc) == P.base_func;
+}
+
 /* Where an instruction went on to: the PC, or, if an interrupt was entered
  * right after it, the return address the interrupt pushed. */
 static avr_flashaddr_t next_pc(avr_t *avr, int interrupted)
@@ -224,9 +236,7 @@ void profiler_step(avr_t *avr, avr_flashaddr_t pc0, avr_cycle_count_t c0, uint8_
 			}
 		}
 	}
-	if (!P.run_window && (P.depth == 0 || (P.depth == 1
-			&& !(pc1 >> 1 < P.n_words && P.opens[pc1 >> 1])
-			&& func_at(pc1) == P.base_func))) {
+	if (!P.run_window && (P.depth == 0 || (P.depth == 1 && window_ends(pc1)))) {
 		close_window("end");
 		P.depth = 0;
 		return;
@@ -287,6 +297,14 @@ static int parse_ranges(const char *s, uint8_t *opens, uint32_t n_words)
 	return 0;
 }
 
+static int read_ranges(const char *flag, const char *s, uint8_t *in)
+{
+	if (parse_ranges(s, in, P.n_words) == 0)
+		return 0;
+	diag("%s: bad ranges '%s' (LO-HI[,LO-HI...] in hex, inside the flash)", flag, s);
+	return -1;
+}
+
 /* The map: one function a line, "START END" in hex byte addresses (END
  * exclusive); its line index is its id. */
 static int read_map(const char *path)
@@ -338,10 +356,16 @@ int profiler_setup(avr_t *avr)
 	if (read_map(opt.profile_map) != 0)
 		return -1;
 	P.run_window = !opt.profile_window;
-	if (opt.profile_window && parse_ranges(opt.profile_window, P.opens, P.n_words) != 0) {
-		diag("--profile-window: bad ranges '%s' (LO-HI[,LO-HI...] in hex, inside the flash)",
-			opt.profile_window);
+	if (opt.profile_window && read_ranges("--profile-window", opt.profile_window, P.opens) != 0)
 		return -1;
+	if (opt.profile_window_end) {
+		P.ends = calloc(P.n_words, 1);
+		if (!P.ends) {
+			diag("profile: out of memory");
+			return -1;
+		}
+		if (read_ranges("--profile-window-end", opt.profile_window_end, P.ends) != 0)
+			return -1;
 	}
 	P.out = fopen(opt.profile, "w");
 	if (!P.out) {

@@ -9,6 +9,9 @@
 #include "cycles.h"
 #include "uart.h"
 
+/* A local symbol `name` at this point of the code, and no instruction (port.h). */
+#define PORT_CODE_MARK(name) __asm__ __volatile__(#name ":" ::)
+
 static inline uint32_t port_cycles(void) { return cycles_now(); }
 
 static inline uint16_t port_rx_overruns(void)

@@ -10,6 +10,10 @@
  * firmware/native), so the AVR's can be inline: every frame the core handles reads it. */
 uint32_t port_cycles_per_second(void);
 
+/* PORT_CODE_MARK(name), from port_inline.h: on the AVR, a symbol `name` at that point
+ * of the code and no instruction, which vehil profile finds in the ELF (a window opens
+ * or closes there); nothing on the host. Each may appear once in an image. */
+
 /* Frames are encoded straight into the TX buffer. port_tx_open() appends a
  * placeholder (a COBS code byte, known only when its block ends) and holds it and
  * everything after it back; port_tx_put() appends a byte; port_tx_close() writes the

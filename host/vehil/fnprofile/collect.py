@@ -24,7 +24,9 @@ from vehil.errors import VehilError
 from vehil.fnprofile.elfmap import ElfMap, instruction_words
 from vehil.fnprofile.model import Profile
 
-FRAME_FUNCTION = "end_of_frame"  # firmware/lib/board/dispatch.c
+# A frame's handling, from one code mark to the other (firmware/lib/board/dispatch.c):
+# inlined, its code is interleaved with the receive loop's.
+FRAME_MARKS = ("vehil_frame_begin", "vehil_frame_end")
 IDLE_FUNCTION = "uart_rx_wait"  # firmware/src/uart.c: the main loop's wait for bytes
 
 
@@ -46,6 +48,10 @@ def _board_class(name: str) -> type[SimavrBoard]:
 def elf_of(board: str) -> Path:
     """The image the board runs."""
     return _board_class(board)().elf
+
+
+def _ranges(ranges: list[tuple[int, int]]) -> str:
+    return ",".join(f"{lo:x}-{hi:x}" for lo, hi in ranges)
 
 
 @dataclass
@@ -71,11 +77,13 @@ class Session:
             sites = self.elf.step_call_sites()
             ranges = [(a, a + 2 * instruction_words(self.elf.word(a))) for a in sites]
         elif self.what == "frame":
-            ranges = self.elf.function_ranges(FRAME_FUNCTION)
+            begin, end = (self.elf.mark(name) for name in FRAME_MARKS)
+            args += ["--profile-window-end", _ranges([end])]
+            ranges = [begin]
         else:
             ranges = []
         if ranges:
-            args += ["--profile-window", ",".join(f"{lo:x}-{hi:x}" for lo, hi in ranges)]
+            args += ["--profile-window", _ranges(ranges)]
         return args
 
     def board(self, name: str, options: BoardOptions | None = None) -> Board:
@@ -173,6 +181,7 @@ def pings(
     elif profile.windows != count:
         raise VehilError(
             f"{count} PINGs gave {profile.windows} frame windows: the frame path's code "
-            f"({FRAME_FUNCTION}) is not one stretch the window can follow in this image"
+            f"(between {' and '.join(FRAME_MARKS)}) is not one stretch the window can follow "
+            "in this image"
         )
     return profile

@@ -84,7 +84,7 @@ def profile_functions(args: argparse.Namespace, console: Console) -> int:
                 baud=baud,
             )
             title = f"{size}-byte PING on {board}, window {window}: " + (
-                "the frame path (end_of_frame)"
+                "the frame path (a frame's handling)"
                 if per == "frame"
                 else f"the whole firmware per exchange, {args.count} exchanges"
             )

@@ -312,43 +312,21 @@ class ElfMap:
             )
         return sites
 
-    def function_ranges(self, name: str) -> list[tuple[int, int]]:
-        """The code of a function: its symbol, or where it was inlined (DWARF)."""
-        for f in self.functions:
-            if f.name == name and not f.library:
-                return [(f.start, f.end)]
-        dwarf = self.elf.get_dwarf_info()
-        out: list[tuple[int, int]] = []
-        for cu in dwarf.iter_CUs():
-            origins = set()
-            for die in cu.iter_DIEs():
-                if die.tag == "DW_TAG_subprogram":
-                    n = die.attributes.get("DW_AT_name")
-                    if n is not None and n.value.decode() == name:
-                        origins.add(die.offset)
-                elif die.tag == "DW_TAG_inlined_subroutine":
-                    origin = die.attributes.get("DW_AT_abstract_origin")
-                    if origin is None:
-                        continue
-                    if origin.value + cu.cu_offset not in origins:
-                        continue
-                    out.extend(self._die_ranges(die, dwarf))
-        if not out:
-            raise ElfMapError(f"{self.path}: no function {name!r}, inlined or not")
-        return sorted(out)
-
-    @staticmethod
-    def _die_ranges(die, dwarf) -> list[tuple[int, int]]:  # noqa: ANN001
-        a = die.attributes
-        if "DW_AT_low_pc" in a:
-            lo = a["DW_AT_low_pc"].value
-            hi = a["DW_AT_high_pc"]
-            end = hi.value if hi.form == "DW_FORM_addr" else lo + hi.value
-            return [(lo, end)]
-        if "DW_AT_ranges" in a:
-            rl = dwarf.range_lists().get_range_list_at_offset(a["DW_AT_ranges"].value)
-            return [(r.begin_offset, r.end_offset) for r in rl if hasattr(r, "begin_offset")]
-        return []
+    def mark(self, name: str) -> tuple[int, int]:
+        """A code mark (PORT_CODE_MARK, firmware/lib/board/port.h): the instruction there."""
+        symtab = self.elf.get_section_by_name(".symtab")
+        found = (
+            [s["st_value"] for s in symtab.get_symbol_by_name(name) or []]
+            if isinstance(symtab, SymbolTableSection)
+            else []
+        )
+        if len(found) != 1:
+            raise ElfMapError(
+                f"{self.path}: {'no' if not found else len(found)} code mark {name!r} "
+                "(one expected): was the image built by `vehil build` from this tree?"
+            )
+        addr = found[0]
+        return addr, addr + 2 * instruction_words(self.word(addr))
 
     def map_text(self) -> str:
         """The bridge's --profile-map: one function a line, 'START END' in hex."""
