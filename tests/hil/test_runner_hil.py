@@ -135,6 +135,7 @@ LONGER = {
     "rls-heavy-rolling-fixed": 20.0,  # unlike the shipped drives
     "rls-heavy-200hz-fixed": 17.0,  # 2.9 t at 200 Hz braking past the old 32 kN at 16 s
     "rls-no-excitation-fixed": 10.0,  # built to raise ILL_CONDITIONED: from its first second
+    "rls-walk-noisy-fixed": 5.0,  # θ3's random walk at 200 Hz: bit-exact with the native build
     "paper-dither-fixed": 15.0,  # bit-exact with the native build
     "mass-step-fixed": 45.0,  # past the +300 kg at 40 s
     "van-rolling-fixed": 10.0,  # unlike the shipped drives

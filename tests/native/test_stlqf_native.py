@@ -232,3 +232,24 @@ def test_rls_a_grade_past_asin_s_domain_is_clamped_not_saturated(run_scenario, m
     )
     status = run_scenario(sc, board="native").figures.status
     assert status["CLAMPED"] > 100 and status["SATURATED"] == 0
+
+
+@pytest.mark.parametrize("mode", ["F32", "FIXED"])
+def test_rls_with_a_long_memory_and_the_grade_a_random_walk_holds_the_mass(
+    run_scenario, mode
+) -> None:  # noqa: ANN001
+    """A noisy 2300 kg van on a rolling road at 200 Hz: λ per second with θ3 a random walk
+    (q_grade) keeps m within 35 kg of the truth (28 kg RMS); λ = 0.95 a sample leaves it by
+    ~1000 kg. The board follows float64 either way."""
+    sc = dataclasses.replace(scenario.load("rls-walk-noisy-fixed"), mode=mode, duration=20.0)
+    if mode == "F32":
+        sc = dataclasses.replace(
+            sc,
+            tolerances={
+                k: dataclasses.replace(t, bit_exact=False) for k, t in sc.tolerances.items()
+            },
+        )
+    run_scenario(sc, board="native").assert_passed()
+    paper = dataclasses.replace(sc, params={**sc.params, "t_ref": 0.0, "q_grade": 0.0})
+    figures = run_scenario(paper, board="native").figures
+    assert figures.outputs["m"].truth.rmse > 300.0

@@ -6,13 +6,13 @@
 #include "proto/wire.h"
 #include "rom/rom.h"
 
-enum { P_LAMBDA, P_P0_M, P_P0_CDA, P_CAP, P_HELD, P_TREF, N_OWN };
+enum { P_LAMBDA, P_P0_M, P_P0_CDA, P_CAP, P_HELD, P_TREF, P_QGRADE, N_OWN };
 #define N_PARAMS (N_OWN + LONGIT_N_PARAMS)
 #define ONE_Q30 ((int32_t)1 << 30)
 
 static const ROM param_range_t ranges[N_OWN] = {
     {0.5f, 1.0f, 30}, {0.0f, 1e9f, 0},  {0.0f, 1e4f, 16},
-    {1.0f, 1e6f, 0},  {1e-3f, 1e4f, 16}, {0.0f, 1.0f, 30}};
+    {1.0f, 1e6f, 0},  {1e-3f, 1e4f, 16}, {0.0f, 1.0f, 30}, {0.0f, 1e6f, 8}};
 
 /* λ per sample: as given (t_ref = 0), or a forgetting per t_ref of time raised to T / t_ref,
  * so RLS remembers as long at any sample time (docs/estimators/rls.md). */
@@ -238,6 +238,19 @@ static void configure_q(rls_state_t *s, const uint8_t *params)
             (*e)++;
         }
     }
+    /* θ3's random walk, q_grade T a step before the forgetting: P̃_33 += (q_grade T / λ) l
+     * 2^(-2 e_3) (P = (λ / l) P̃ 4^e), the constant as P̃ (Q30) 4^e_walk; q_grade (Q8) times
+     * T (Q30) is Q38, below 2^58 */
+    int64_t qt = (int64_t)param_q(params, P_QGRADE) * param_q(params, N_OWN + LONGIT_T);
+    int32_t mant;
+    to_scaled(qt, 38, &mant, &s->u.q.e_walk);
+    uint8_t st = 0;
+    mant = mant != 0 ? fx_div(mant, 30, lambda, 30, 30, &st) : 0; /* in [1/4, 2) */
+    if (mant >= ONE_Q30) {
+        mant = (mant + 2) >> 2;
+        s->u.q.e_walk++;
+    }
+    s->u.q.walk = (uint16_t)((mant + (1 << 14)) >> 15); /* Q15, in [1/4, 1] */
     s->u.q.lambda = lambda;
     s->u.q.g_cos = fx_ufactor((uint32_t)s->u.q.shared.g_cos, 30);
 }
@@ -261,6 +274,8 @@ static uint8_t rls_configure(void *state, uint8_t mode, const uint8_t *params)
     s->p0[0] = s->p0[2] = p0_m;
     s->p0[1] = param_value(params, P_P0_CDA, mode, param_range_q(ranges, P_P0_CDA));
     float held = param_value(params, P_HELD, mode, param_range_q(ranges, P_HELD));
+    s->walk = param_value(params, P_QGRADE, mode, param_range_q(ranges, P_QGRADE)) *
+              param_value(params, N_OWN + LONGIT_T, mode, 30);
     for (uint8_t i = 0; i < 3u; i++) {
         s->cap[i] = p_cap * s->p0[i];
         s->held[i] = held * s->p0[i];
@@ -289,6 +304,7 @@ __attribute__((noinline)) static uint8_t step_f32(rls_state_t *s, const uint8_t 
             err -= psi[i] * theta[i];
         }
         float inv_lambda = 1.0f / s->lambda, forget = inv_lambda;
+        P[8] += s->walk; /* θ3's random walk, before the forgetting */
         for (uint8_t i = 0; i < 3u; i++) {
             float k = pp[i] / denom;
             theta[i] += k * err;
@@ -385,6 +401,28 @@ __attribute__((noinline)) static void correct(rls_state_t *s, const int32_t *t, 
     P[5] = fx_sub(P[5], mul_shr(t[2], w[2], n_p, st), st);
 }
 
+/* θ3's random walk: P̃_33 += walk l 4^(e_walk - e_3) (configure_q), walk l by their top 16
+ * bits (within 2^-14 of q_grade: a tuning). Where the walk's scale is above P̃_33's (as
+ * usual: the walk dominates P_33 before each sample), the sum is formed at e_walk and row
+ * and column 3 are shifted once, straight to their renormalised place. */
+static void walk(rls_state_t *s)
+{
+    int32_t *P = s->u.q.P;
+    int8_t *e3 = &s->u.q.e[2];
+    int8_t k = (int8_t)(s->u.q.e_walk - *e3);
+    int32_t w = (int32_t)fx_umul16x16(s->u.q.walk, (uint16_t)((uint32_t)s->u.q.l >> 15));
+    if (k <= 0) {
+        P[5] += scale(w, (int16_t)(2 * k)); /* each below 1: renormalise takes the sum */
+        return;
+    }
+    int32_t d = scale(P[5], (int16_t)(-2 * k)) + w; /* in [1/16, 2) at e_walk: w >= 1/16 */
+    int8_t r = d >= ONE_Q30 ? -1 : (d >= (ONE_Q30 >> 2) ? 0 : 1);
+    P[3] = scale(P[3], (int16_t)(r - k));
+    P[4] = scale(P[4], (int16_t)(r - k));
+    P[5] = scale(d, (int16_t)(2 * r));
+    *e3 = (int8_t)(s->u.q.e_walk - r);
+}
+
 /* The RLS update with P as P̃ 2^(e_i + e_j) (rls.h): u = 2^e ψ as ũ 2^top (Q30, its
  * largest entry in [1/2, 1)), w̃ = P̃ ũ, so Pψ = 2^(e + top) w̃ and λ + ψᵀPψ =
  * 2^(2 top) s, s = l 2^(-2 top) + ũᵀw̃, held as s_m 2^g; the gain is
@@ -446,6 +484,9 @@ __attribute__((noinline)) static void update_q(rls_state_t *s, const int32_t *x,
         t[i] = fx_mul_shr(w[i], r, 32, &st); /* ŵ / s_m, Q27: < 2 */
     }
     correct(s, t, w, err, (int16_t)(top + g - gw), (int16_t)(27 - 2 * gw + g), &st);
+    if (s->u.q.walk != 0) {
+        walk(s);
+    }
     uint8_t forget = renormalise(P, e, &st);
     if (!forget) {
         reset_covariance(s);

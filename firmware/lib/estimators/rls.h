@@ -16,8 +16,9 @@
  * forgetting and the windup guard that hold P near it) carries that estimate more than the
  * data do (docs/estimators/rls.md).
  * Inputs  v [m/s] Q24, v̇ [m/s²] Q24, z [N] Q14.  Outputs m̂ [kg] Q16, Ĉ_dA_f [m²] Q16,
- * β̂_r [deg] Q20.  Params  λ, P(0) of m and m sin, P(0) of C_dA_f, p_cap, held_max, then
- * longit's. */
+ * β̂_r [deg] Q20.  Params  λ, P(0) of m and m sin, P(0) of C_dA_f, p_cap, held_max, t_ref,
+ * q_grade (θ3's random walk: P_33 grows by q_grade T a step, so the grade can move while λ
+ * keeps a long memory of m and C_dA_f), then longit's. */
 #ifndef VEHIL_ESTIMATORS_RLS_H
 #define VEHIL_ESTIMATORS_RLS_H
 
@@ -34,6 +35,7 @@ typedef struct {
     uint8_t mode;
     float lambda, p0[3], cap[3]; /* cap: forgetting pauses while a variance would pass it */
     float held[3];               /* ILL_CONDITIONED while a variance is above held_max P(0) */
+    float walk;                  /* θ3's random walk: q_grade T added to P_33 a step */
     union {
         struct {
             float theta[3], P[9];
@@ -46,6 +48,8 @@ typedef struct {
             int32_t held[3];           /* held_max P(0)_ii / λ as P̃ (Q30) */
             int8_t e_p0[3], e_cap[3], e_held[3]; /* with these exponents */
             int32_t lambda, l;         /* λ and l, Q30: l in [1/4, 1] */
+            uint16_t walk;             /* q_grade T / λ as P̃ to 16 bits (Q15), 0 for none */
+            int8_t e_walk;             /* with this exponent */
             fx_ufactor_t g_cos;        /* g / cos ε to 16 bits for the innovation (Q26 / 2^30) */
             longit_q_t shared;
         } q;

@@ -372,6 +372,7 @@ class Rls:
         P = (P + P.T) / 2
         # Forgetting stops while a variance would pass p_cap times its start (windup
         # guard: without it P grows as λ^-n in directions the drive does not excite).
+        P[2, 2] += self.p["q_grade"] * self.p["T"]  # θ3's random walk (the road's grade moves)
         self.P = P if np.any(np.diag(P) / lam > self.cap) else P / lam
         p0 = self.cap / self.p["p_cap"]
         if not np.all(np.diag(self.P) > 0):  # round-off broke P: start it again
@@ -422,6 +423,15 @@ RLS = register(
                 doc="ILL_CONDITIONED while a variance is above held_max times its P(0)",
             ),
             t_ref_param("0: λ per sample; > 0: λ per t_ref of time, λ^(T/t_ref) a step"),
+            Param(
+                "q_grade",
+                "kg^2/(N^2 s)",
+                q=8,
+                default=0.0,
+                lo=0.0,
+                hi=1e6,
+                doc="θ3 = m sin(ε + β_r) a random walk: its variance grows q_grade T a step",
+            ),
             *SHARED_PARAMS,
         ),
         rules=(no_fixed_prefilter, lambda_within_range),
