@@ -12,6 +12,11 @@
 
 #define STACK_PAINT 0xC5u
 #define BOOT_MAGIC 0x7E5Au
+/* The rate the UART boots at: `vehil build --boot-baud` sets another for USB-serial
+ * adapters that cannot run 1 Mbaud (README, "A board through a slower adapter"). */
+#ifndef VEHIL_BOOT_BAUD
+#define VEHIL_BOOT_BAUD UART_DEFAULT_BAUD
+#endif
 /* Acceptable |baud error|, in 0.01 %: wide enough for 230400 (-3.5 %). */
 #define BAUD_ERROR_LIMIT 400u
 
@@ -62,7 +67,7 @@ void port_avr_init(void)
     }
     boot_count++;
     cycles_init();
-    uart_init(UART_DEFAULT_BAUD);
+    uart_init(VEHIL_BOOT_BAUD);
 }
 
 uint32_t port_cycles_per_second(void) { return F_CPU; }

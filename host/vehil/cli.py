@@ -26,8 +26,9 @@ from vehil.boards import (
     make_board,
     open_board,
 )
+from vehil.boards.base import DEFAULT_BAUD, image_boot_baud
 from vehil.errors import LinkError, NotComparable, Terminated, VehilError
-from vehil.link import BoardInfo, Link
+from vehil.link import BoardInfo
 from vehil.paths import runs_dir
 from vehil.ping import PingSummary, run_ping
 from vehil.terminal import make_console
@@ -61,10 +62,11 @@ def _add_board_options(p: argparse.ArgumentParser, default: str = DEFAULT_BOARD)
     )
     p.add_argument(
         "--baud",
-        type=int,
+        type=_above_zero(int),
         default=None,
-        help="switch the link to this baud rate after connecting (the firmware boots at 1000000)",
+        help="switch the link to this baud rate once connected",
     )
+    _add_boot_baud_option(p)
     p.add_argument(
         "--timeout", type=_above_zero(float), default=2.0, help="seconds to wait for each reply"
     )
@@ -84,13 +86,26 @@ def _add_board_options(p: argparse.ArgumentParser, default: str = DEFAULT_BOARD)
     _add_json_option(p)
 
 
+def _add_boot_baud_option(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--boot-baud",
+        type=_above_zero(int),
+        default=None,
+        metavar="BAUD",
+        help="the rate the board's firmware boots at, where the link opens (default: the "
+        "image's, 1000000 unless built with `vehil build --boot-baud`)",
+    )
+
+
 def _add_run_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--realtime", action="store_true", help="pace samples at the sample time")
     p.add_argument("--out", default=None, help="folder for run.arrow and the report")
 
 
 def _options(args: argparse.Namespace) -> BoardOptions:
-    return BoardOptions(timeout_s=args.timeout, faults=args.faults)
+    return BoardOptions(
+        timeout_s=args.timeout, faults=args.faults, boot_baud=args.boot_baud, baud=args.baud
+    )
 
 
 def _labgrid(args: argparse.Namespace) -> LabgridOptions | None:
@@ -187,11 +202,6 @@ def _connect(args: argparse.Namespace):  # noqa: ANN202
     return open_board(args.board, _options(args), labgrid=_labgrid(args))
 
 
-def _maybe_switch_baud(link: Link, baud: int | None) -> None:
-    if baud is not None and baud != link.info.fields["baud"]:  # type: ignore[union-attr]
-        link.set_baud(baud)
-
-
 def info_table(board: str, info: BoardInfo) -> Table:
     f = info.fields
     t = Table(title=f"{board}: vehil firmware {info.firmware_version}", show_header=False)
@@ -248,7 +258,7 @@ def cmd_build(args: argparse.Namespace) -> int:
     from vehil.build import build
 
     parts = tuple(args.only) if args.only else None
-    for part, path in build(parts, verbose=args.verbose).items():
+    for part, path in build(parts, boot_baud=args.boot_baud, verbose=args.verbose).items():
         console.print(f"[green]built[/] {part}: {path}")
         if part == "firmware":
             from vehil.build.budget import budget
@@ -281,7 +291,6 @@ def cmd_new(args: argparse.Namespace) -> int:
 
 def cmd_info(args: argparse.Namespace) -> int:
     with _connect(args) as link:
-        _maybe_switch_baud(link, args.baud)
         assert link.info is not None
         stats = link.stats()
         _show(args, info_table(args.board, link.info), {"info": link.info.fields, "stats": stats})
@@ -297,22 +306,28 @@ def cmd_flash(args: argparse.Namespace) -> int:
     from vehil.boards.serialport import SerialBoard
     from vehil.errors import NoPort
 
+    # the image's boot rate, where the link to it opens (an Intel HEX does not say it)
+    boot = args.boot_baud
+    if boot is None and args.image:
+        given = Path(args.image)
+        boot = image_boot_baud(given) if given.suffix == ".elf" else DEFAULT_BAUD
+    options = BoardOptions(timeout_s=args.timeout, boot_baud=boot or DEFAULT_BAUD)
     if args.port:
-        board: Board = SerialBoard(args.port, BoardOptions(timeout_s=args.timeout))
+        board: Board = SerialBoard(args.port, options)
     elif args.board:
-        board = make_board(args.board, BoardOptions(timeout_s=args.timeout), labgrid=_labgrid(args))
+        board = make_board(args.board, options, labgrid=_labgrid(args))
     else:
         raise NoPort(
             f"give the board's port (--port /dev/ttyACM0; ports seen: {ports_seen()}) "
             "or --board simavr-bootloader"
         )
-    flash.check_target(board, args.baud)
+    flash.check_target(board, args.baud, args.boot_baud)
     if args.image:
         image = Path(args.image)
         if image.suffix == ".elf":
             image = flash.to_hex(image, flash.FLASH_DIR / f"{image.stem}.hex")
     else:
-        image = flash.firmware_hex(args.env)
+        image = flash.firmware_hex(args.env, boot_baud=args.boot_baud)
     with flash.flashed(board, image, baud=args.baud) as (result, link):
         console.print(
             f"[green]flashed[/] {result.image} to {result.port}: {result.bytes:,} B written "
@@ -330,7 +345,6 @@ def cmd_flash(args: argparse.Namespace) -> int:
 
 def cmd_ping(args: argparse.Namespace) -> int:
     with _connect(args) as link:
-        _maybe_switch_baud(link, args.baud)
         summary = run_ping(link, count=args.count, size=args.size, window=args.window, partial=True)
         _show(args, ping_table(args.board, summary), _ping_figures(summary))
     if summary.lost:
@@ -418,7 +432,8 @@ def _forwarded_run_options(args: argparse.Namespace) -> list[str]:
     """The options of `vehil run` that each of several runs gets as given."""
     options = ["--board", args.board, "--timeout", str(args.timeout)]
     options += ["--acquire-timeout", str(args.acquire_timeout)]
-    given = {"--baud": args.baud, "--faults": args.faults, "--window": args.window}
+    given = {"--baud": args.baud, "--boot-baud": args.boot_baud, "--faults": args.faults}
+    given["--window"] = args.window
     for flag, value in given.items():
         if value is not None:
             options += [flag, str(value)]
@@ -451,7 +466,7 @@ def _run_on_dask(args: argparse.Namespace, paths: list[Path]) -> int:
     from vehil import batch
 
     given = {"--realtime": args.realtime, "--faults": args.faults, "--window": args.window}
-    given |= {"--profile": args.profile, "--baud": args.baud}
+    given |= {"--profile": args.profile, "--baud": args.baud, "--boot-baud": args.boot_baud}
     if used := [flag for flag, v in given.items() if v]:
         raise VehilError(f"{', '.join(used)}: not for runs on Dask (native board, lockstep)")
     baseline = _baseline(args)
@@ -935,6 +950,14 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     p = sub.add_parser("build", help="build the firmware, the simavr bridge and the native library")
     p.add_argument("--only", action="append", choices=("firmware", "firmware-ev", "sim", "native"))
+    p.add_argument(
+        "--boot-baud",
+        type=_above_zero(int),
+        default=None,
+        metavar="BAUD",
+        help="the firmware's UART boots at this rate, not 1000000: for a USB-serial adapter "
+        "that cannot run 1 Mbaud (the host opens the link at the image's rate)",
+    )
     p.add_argument("--verbose", action="store_true")
     p.set_defaults(func=cmd_build)
 
@@ -976,6 +999,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument(
         "--baud", type=int, default=115200, help="the bootloader's baud rate (the Mega's: 115200)"
     )
+    _add_boot_baud_option(p)
     p.add_argument(
         "--timeout", type=_above_zero(float), default=2.0, help="seconds to wait for each reply"
     )

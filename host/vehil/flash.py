@@ -65,11 +65,12 @@ def to_hex(elf: Path, out: Path) -> Path:
     return out
 
 
-def firmware_hex(env: str = "offline") -> Path:
-    """Builds the firmware for ENV (incrementally) and returns its Intel HEX."""
+def firmware_hex(env: str = "offline", *, boot_baud: int | None = None) -> Path:
+    """Builds the firmware for ENV (incrementally), its UART booting at `boot_baud` (None:
+    the firmware's default), and returns its Intel HEX."""
     from vehil.build.platformio import build_firmware
 
-    return to_hex(build_firmware(env), FLASH_DIR / f"{env}.hex")
+    return to_hex(build_firmware(env, boot_baud=boot_baud), FLASH_DIR / f"{env}.hex")
 
 
 def avrdude_port(url: str) -> str:
@@ -231,7 +232,7 @@ def run_avrdude(
     )
 
 
-def check_target(board: Board, baud: int) -> None:
+def check_target(board: Board, baud: int, boot_baud: int | None = None) -> None:
     """What makes flashing fail whatever the image: refused before one is built."""
     if not board.flashable:
         raise FlashError(
@@ -239,6 +240,10 @@ def check_target(board: Board, baud: int) -> None:
             "--board simavr-bootloader or a real board (--port PORT)"
         )
     check_baud(baud)
+    if boot_baud is not None:
+        from vehil.build.platformio import check_boot_baud
+
+        check_boot_baud(boot_baud)
     board.check()
 
 

@@ -90,6 +90,7 @@ def test_a_serial_port_with_no_vehil_board_says_what_to_check(monkeypatch) -> No
     said = str(exc.value)
     assert said.startswith(f"{name}: no ready frame within 0 s after opening at 1000000 baud")
     assert "--baud switches it only once connected" in said and "vehil flash" in said
+    assert "give --boot-baud if the board runs an image built with another" in said
 
 
 def test_an_estimator_the_image_lacks_is_not_a_lost_board_and_says_where_it_is() -> None:

@@ -4,9 +4,11 @@ from __future__ import annotations
 
 import contextlib
 import errno
+import functools
 import time
 from collections.abc import Iterator
 from dataclasses import dataclass
+from pathlib import Path
 
 import serial
 from serial.tools import list_ports
@@ -14,16 +16,41 @@ from serial.tools import list_ports
 import vehil.transports  # noqa: F401  (registers native://)
 from vehil.errors import BoardStartError, BoardTimeout, LinkError, NoPort, PortBusy
 from vehil.link import Link
+from vehil.paths import FIRMWARE_ELF
 
 DEFAULT_BAUD = 1_000_000
 _RETRY_OPEN_S = 0.02
 
 
+def image_boot_baud(elf: Path) -> int:
+    """The rate an image's UART boots at: the vehil_boot_baud symbol `vehil build
+    --boot-baud` puts in the ELF, else the firmware's default."""
+    if not elf.exists():
+        return DEFAULT_BAUD
+    return _symbol_baud(elf, elf.stat().st_mtime_ns)
+
+
+@functools.cache
+def _symbol_baud(elf: Path, _mtime_ns: int) -> int:
+    from elftools.elf.elffile import ELFFile
+    from elftools.elf.sections import SymbolTableSection
+
+    with elf.open("rb") as f:
+        symtab = ELFFile(f).get_section_by_name(".symtab")
+        if not isinstance(symtab, SymbolTableSection):
+            return DEFAULT_BAUD
+        found = symtab.get_symbol_by_name("vehil_boot_baud")
+        return int(found[0]["st_value"]) if found else DEFAULT_BAUD
+
+
 @dataclass(frozen=True, kw_only=True)
 class BoardOptions:
-    """What any board takes: the link's baud and reply timeout, and faults to inject."""
+    """What any board takes: the rate its firmware boots at (None: its image's), the rate
+    to switch the link to once connected (None: stay), the link's reply timeout, and
+    faults to inject."""
 
-    baud: int = DEFAULT_BAUD
+    boot_baud: int | None = None
+    baud: int | None = None
     timeout_s: float = 2.0
     faults: str | None = None  # a faults:// spec, e.g. "drop=1e-3,seed=1"; armed once up
 
@@ -61,13 +88,15 @@ class Board:
     flashable = False  # has a bootloader that avrdude can program (`vehil flash`)
     exclusive = False  # open the port for us alone (a real device)
     connect_timeout_s = 0.0  # how long a port that does not open yet is tried again
+    elf = FIRMWARE_ELF  # the image it runs, or the one `vehil flash` puts on it
 
     def __init__(self, options: BoardOptions | None = None):
         self.options = options or BoardOptions()
 
     @property
     def baud(self) -> int:
-        return self.options.baud
+        """The rate the link opens at: the firmware's boot rate, as given or as its image says."""
+        return self.options.boot_baud or image_boot_baud(self.elf)
 
     def port_url(self, url: str) -> str:
         """The URL to open: the board's own, or wrapped in a fault injector."""
@@ -140,6 +169,9 @@ class Board:
             try:
                 self.wait_ready(link)
                 link.hello()
+                assert link.info is not None
+                if self.options.baud is not None and self.options.baud != link.info.fields["baud"]:
+                    link.set_baud(self.options.baud)
                 arm = getattr(link.port, "arm", None)
                 if arm is not None:
                     arm()  # faults start now that the board is up

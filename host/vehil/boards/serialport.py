@@ -65,7 +65,13 @@ class SerialBoard(Board):
                 raise BoardTimeout(
                     f"{self.port}: no ready frame within {self.ready_timeout_s:.0f} s after "
                     f"opening at {self.baud} baud, and no answer to HELLO. The link opens at "
-                    "the firmware's boot rate (--baud switches it only once connected): "
-                    "check that this is the board's port, that the vehil firmware is flashed "
-                    "(`vehil flash`), and the cable."
+                    f"the firmware's boot rate ({self._whose_rate()}; --baud switches it only "
+                    "once connected): check that this is the board's port, that the vehil "
+                    "firmware is flashed (`vehil flash`), and the cable."
                 ) from None
+
+    def _whose_rate(self) -> str:
+        if self.options.boot_baud is not None:
+            return "as --boot-baud gives it"
+        built = f"{self.elf}'s" if self.elf.exists() else "the default"
+        return f"{built}; give --boot-baud if the board runs an image built with another"

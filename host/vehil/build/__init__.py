@@ -12,7 +12,7 @@ from pathlib import Path
 
 from vehil import project
 from vehil.build.native import build_native
-from vehil.build.platformio import build_firmware, build_image
+from vehil.build.platformio import build_firmware, build_image, check_boot_baud
 from vehil.errors import BuildError
 from vehil.paths import DATA_ROOT, PROJECT_IMAGE, SIMAVR_BRIDGE
 
@@ -46,19 +46,28 @@ def default_parts() -> tuple[str, ...]:
     return PROJECT_PARTS if project.current() is not None else PARTS
 
 
-def build(parts: Sequence[str] | None = None, *, verbose: bool = False) -> dict[str, Path]:
-    """Builds the named parts (incrementally); returns where each product is."""
+def build(
+    parts: Sequence[str] | None = None, *, boot_baud: int | None = None, verbose: bool = False
+) -> dict[str, Path]:
+    """Builds the named parts (incrementally), the firmware's UART booting at `boot_baud`
+    (None: its default); returns where each product is."""
+    if boot_baud is not None:
+        check_boot_baud(boot_baud)  # before anything is built
     here = project.current()
     if here is None:
         steps = {
-            "firmware": lambda: build_firmware(verbose=verbose),
-            "firmware-ev": lambda: build_firmware("offline-ev", verbose=verbose),
+            "firmware": lambda: build_firmware("offline", boot_baud=boot_baud, verbose=verbose),
+            "firmware-ev": lambda: build_firmware(
+                "offline-ev", boot_baud=boot_baud, verbose=verbose
+            ),
             "native": lambda: build_native(verbose=verbose),
         }
     else:
         chosen, c_sources = project_image(here), here.c_sources
         steps = {
-            "firmware": lambda: build_image(chosen, c_sources, key=PROJECT_IMAGE, verbose=verbose),
+            "firmware": lambda: build_image(
+                chosen, c_sources, key=PROJECT_IMAGE, boot_baud=boot_baud, verbose=verbose
+            ),
             "native": lambda: build_native(chosen, c_sources, verbose=verbose),
         }
     steps["sim"] = lambda: build_simavr_bridge(verbose=verbose)

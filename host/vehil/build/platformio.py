@@ -54,9 +54,28 @@ def install_tool_scons(core_dir: Path = CORE_DIR) -> Path:
     return target
 
 
-def _environment() -> dict[str, str]:
+def check_boot_baud(baud: int) -> None:
+    """Refuses a boot rate the UART cannot make from 16 MHz within the firmware's 4 %."""
+    from vehil.profile import uart_setting
+
+    s = uart_setting(baud)
+    if s.ubrr > 4095:
+        what = "below 489 baud, the slowest the UART's divider makes"
+    elif abs(s.error_pct) > 4.0:
+        what = f"the UART makes {s.actual:,.0f} ({s.error_pct:+.1f} %), past the 4 % a link takes"
+    else:
+        return
+    raise BuildError(
+        f"--boot-baud {baud}: {what} from 16 MHz; give a rate it makes, such as 57600, "
+        "115200, 230400, 250000 or 500000"
+    )
+
+
+def _environment(boot_baud: int | None = None) -> dict[str, str]:
     """PlatformIO's folders in vehil's cache (vehil/paths.py): vehil's own sources may be
-    an installed package's, which nothing writes into."""
+    an installed package's, which nothing writes into. A boot rate goes to the C (the
+    UART's first setting) and into the ELF as the symbol vehil_boot_baud, which the host
+    reads to open the link at it (boards/base.py, image_boot_baud)."""
     env = dict(os.environ)
     env.update(
         PLATFORMIO_CORE_DIR=str(CORE_DIR),
@@ -66,6 +85,12 @@ def _environment() -> dict[str, str]:
         PLATFORMIO_DISABLE_PROGRESSBAR="true",
         PLATFORMIO_NO_ANSI="true",
     )
+    env.pop("PLATFORMIO_BUILD_FLAGS", None)
+    if boot_baud is not None:
+        check_boot_baud(boot_baud)
+        env["PLATFORMIO_BUILD_FLAGS"] = (
+            f"-DVEHIL_BOOT_BAUD={boot_baud}UL -Wl,--defsym=vehil_boot_baud={boot_baud}"
+        )
     return env
 
 
@@ -105,13 +130,16 @@ def build_image(
     c_sources: Sequence[Path] = (),
     *,
     key: str | None = None,
+    boot_baud: int | None = None,
     verbose: bool = False,
 ) -> Path:
     """The default env's image holding `estimators` (registry.select's words: `all -manf`,
     `manf acc_kf`), with the C in the `c_sources` folders (a project's) compiled in, built
     in its own folder under build/images (incrementally, and leaving the envs' builds
-    alone); returns its ELF."""
-    key = key or re.sub(r"[^a-z0-9_]+", "-", estimators.lower()).strip("-") or "all"
+    alone), booting at `boot_baud` (None: the firmware's default); returns its ELF."""
+    if key is None:
+        key = re.sub(r"[^a-z0-9_]+", "-", estimators.lower()).strip("-") or "all"
+        key += f"-boot{boot_baud}" if boot_baud is not None else ""
     elf = image_elf(key)
     folder = elf.parents[2]
     folder.mkdir(parents=True, exist_ok=True)
@@ -126,7 +154,7 @@ def build_image(
         ini.write_text(text)
     install_tool_scons()
     cmd = [sys.executable, "-m", "platformio", "run", "-d", str(DATA_ROOT), "-c", str(ini)]
-    env = {**_environment(), "PLATFORMIO_BUILD_DIR": str(folder / "pio")}
+    env = {**_environment(boot_baud), "PLATFORMIO_BUILD_DIR": str(folder / "pio")}
     proc = subprocess.run([*cmd, "-e", "image"], env=env, capture_output=True, text=True)
     if verbose or proc.returncode != 0:
         tail = "\n".join((proc.stdout + proc.stderr).strip().splitlines()[-30:])
@@ -140,13 +168,16 @@ def build_image(
 _SIZE_LINE = re.compile(r"^(RAM|Flash):\s+\[.*\]\s+(.*)$")
 
 
-def build_firmware(env: str = "offline", *, verbose: bool = False) -> Path:
-    """Runs `pio run -e ENV`; prints PlatformIO's RAM/Flash lines; returns the ELF."""
+def build_firmware(
+    env: str = "offline", *, boot_baud: int | None = None, verbose: bool = False
+) -> Path:
+    """Runs `pio run -e ENV` (the UART booting at `boot_baud`, None: the firmware's
+    default); prints PlatformIO's RAM/Flash lines; returns the ELF."""
     install_tool_scons()
     cmd = [sys.executable, "-m", "platformio", "run", "-d", str(DATA_ROOT), "-e", env]
     if verbose:
         cmd.append("-v")
-    proc = subprocess.run(cmd, env=_environment(), capture_output=True, text=True)
+    proc = subprocess.run(cmd, env=_environment(boot_baud), capture_output=True, text=True)
     output = proc.stdout + proc.stderr
     if verbose:
         print(output)
