@@ -76,6 +76,20 @@ def test_a_board_that_dies_mid_run_fails_the_run_and_keeps_the_recording(tmp_pat
     np.testing.assert_array_equal(rec.data["k"], np.arange(len(rec)))
 
 
+def test_the_stack_read_after_a_run_goes_through_whatever_faults_the_run_had() -> None:
+    """The stack high-water read once every sample is in is a diagnostic, not the run's:
+    --faults break the run's exchanges, not it (drop=1e-2 lost it 4 tries in 10, and a
+    run whose samples had all passed was failed, now and then, as a lost board)."""
+    from vehil.boards import open_board
+    from vehil.errors import BoardTimeout
+
+    with open_board("simavr", BoardOptions(timeout_s=0.2, faults="drop=1,seed=1")) as link:
+        with pytest.raises(BoardTimeout):  # every byte lost: the faults are on
+            link.request("GET_STATS", retries=0)
+        used = runner.stack_used(link)
+        assert used is not None and 40 < used < link.info.fields["free_ram"]
+
+
 def _ignore_sigint() -> None:
     import signal
 

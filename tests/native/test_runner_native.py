@@ -128,3 +128,25 @@ def test_ctrl_c_while_the_bits_are_checked_leaves_the_run_judged_interrupted(
     assert "while the board's bits were checked" in verdict.reason
     assert "bits not checked" in verdict.reason
     assert run.figures.outputs["v"].bit_exact.passed is None  # n/a, not a pass
+
+
+def test_a_board_that_reboots_after_its_last_sample_fails_the_run_and_says_so(built) -> None:  # noqa: ANN001
+    """Every sample answered, then the board reset before the stack high-water was read
+    (a REBOOT slipped in right after the last SAMPLE): not a PASS, and the error says all
+    the samples were in."""
+    from rich.console import Console
+
+    from vehil.boards import BoardOptions, make_board
+    from vehil.link import config_requests
+    from vehil.protocol.schema import SCHEMA
+
+    sc = dataclasses.replace(scenario.load("sine"), duration=0.2)
+    spec = sc.estimator
+    params = spec.encode_params(sc.params, sc.mode)
+    writes = len(config_requests(spec.c_id, SCHEMA.mode[sc.mode], params)) + sc.samples
+    board = make_board("native", BoardOptions(faults=f"reboot_after={writes}"))
+    run = runner.run(sc, board, console=Console(quiet=True))
+    assert run.done == sc.samples and not run.resumes
+    assert run.ended == "failed" and run.figures.verdict.word == "FAILED"
+    assert run.error.startswith(f"board lost after its last sample (all {sc.samples} answered)")
+    assert "rebooted" in run.error
