@@ -31,6 +31,7 @@ ONE_WORKER_MODULES = {
     "tests/hil/test_vendored_hil.py",  # the fixture project's build
     "tests/hil/test_kernels_hil.py",  # the kernels' fixture project's build
     "tests/hil/test_flash_hil.py",  # the board flashed once
+    "tests/hil/test_boot_baud_hil.py",  # the 115200 image built once, not by two workers at once
     "tests/native/test_campaign_native.py",  # a campaign on a local Dask cluster
     "tests/native/test_sweep_native.py",  # a sweep of six runs
     "tests/native/test_cli_native.py",  # a 10,000-sample run
