@@ -253,3 +253,21 @@ def test_rls_with_a_long_memory_and_the_grade_a_random_walk_holds_the_mass(
     paper = dataclasses.replace(sc, params={**sc.params, "t_ref": 0.0, "q_grade": 0.0})
     figures = run_scenario(paper, board="native").figures
     assert figures.outputs["m"].truth.rmse > 300.0
+
+
+@pytest.mark.parametrize("mode", ["F32", "FIXED"])
+def test_stlqf_ill_conditioned_says_when_noise_moves_the_mass(run_scenario, mode) -> None:  # noqa: ANN001
+    """With σ_N = 1 N on the force (heavy-rolling-fixed's car) the window's data fix the mass,
+    but the error filter's gain makes m̂ swing by kilograms a window (46 kg RMS from the
+    truth): m̂'s mean step passes jitter_max and the flag fires, as in float64; the same
+    drive with the plant's 1e-4 N raises it on 3 of 6,000 steps (above)."""
+    sc = scenario.load("heavy-rolling-fixed")
+    noisy = dataclasses.replace(
+        sc, mode=mode, plant_params={**sc.plant_params, "sigma_n": 1.0}, duration=10.0
+    )
+    result = run_scenario(noisy, board="native")
+    flagged = (result.run.status & stlqf.ILL_CONDITIONED) != 0
+    assert result.figures.outputs["m"].truth.rmse > 20.0
+    assert flagged[200:].all()
+    expected = _reference_flags(stlqf.Stlqf(noisy.params), result.run.prepared.inputs)
+    assert np.mean(flagged == expected) > 0.99

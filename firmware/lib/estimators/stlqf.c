@@ -10,7 +10,10 @@
 #include "linalg/chol_q15.h"
 #include "proto/wire.h"
 
-enum { P_CHI1, P_CHI2, P_A11, P_A12, P_A13, P_A22, P_A23, P_A33, P_MU, P_MU_MIN, P_HELD, N_OWN };
+enum {
+    P_CHI1, P_CHI2, P_A11, P_A12, P_A13, P_A22, P_A23, P_A33,
+    P_MU, P_MU_MIN, P_HELD, P_JITTER, P_TAU_JITTER, N_OWN
+};
 #define N_PARAMS (N_OWN + LONGIT_N_PARAMS)
 #define CENTRE (STLQF_ROWS - 1u - STLQF_WL) /* row of the window centre */
 
@@ -18,6 +21,7 @@ static const ROM param_range_t ranges[N_OWN] = {
     {0.0f, 10.0f, 24},     {0.0f, 10.0f, 24},     {-100.0f, 100.0f, 24},
     {-100.0f, 100.0f, 24}, {-100.0f, 100.0f, 24}, {-100.0f, 100.0f, 24}, {-100.0f, 100.0f, 24},
     {-100.0f, 100.0f, 24}, {0.0f, 1.0f, 30},      {0.0f, 1.0f, 30},      {0.0f, 1.0f, 30},
+    {0.0f, 1e4f, 16},      {1e-3f, 100.0f, 16},
 };
 
 /* Where the window's row j (oldest first) is in the ring. */
@@ -115,6 +119,8 @@ static void configure_f32(stlqf_f32_t *f, const longit_t *model, const uint8_t *
     f->mu_max = get_f32(params + 4u * P_MU);
     f->mu_min = get_f32(params + 4u * P_MU_MIN);
     f->held_max = get_f32(params + 4u * P_HELD);
+    f->jitter_max = get_f32(params + 4u * P_JITTER);
+    f->jitter_a = fminf(T / get_f32(params + 4u * P_TAU_JITTER), 1.0f);
     /* g/cos ε is constant, so its filtered columns are exact: τ g' + χ1 g'/T and g'. */
     float col[2][STLQF_ROWS];
     for (uint8_t j = 0; j < STLQF_ROWS; j++) {
@@ -423,6 +429,9 @@ static uint8_t configure_q(stlqf_q_t *q, const uint8_t *params, const int32_t ba
     q->mu_max = param_q(params, P_MU);
     q->mu_min = param_q(params, P_MU_MIN);
     q->held_max = param_q(params, P_HELD);
+    q->jitter_max = param_q(params, P_JITTER);
+    int32_t a = fx_div(T, 30, param_q(params, P_TAU_JITTER), 16, 15, &st); /* T / τ, Q15 */
+    q->jitter_a = (int16_t)(a < INT16_MAX ? a : INT16_MAX);
     int16_t flat[STLQF_ROWS * 3];
     fx_norm16(&band[0][0], flat, STLQF_ROWS * 3u, COL_LIMIT);
     memcpy(q->band, flat, sizeof flat);
@@ -635,7 +644,7 @@ static void stlqf_reset(void *state)
         s->u.q.theta[3] = fx_rescale(l->cda0, 24, 16, &st);
         s->u.q.theta[5] = fx_mul(l->m0, 16, l->sin_eps, 30, 16, &st);
     }
-    s->n_hist = s->n_rows = s->head = 0;
+    s->n_hist = s->n_rows = s->head = s->solved = 0;
     longit_reset(&s->model);
 }
 
@@ -700,6 +709,38 @@ static void push(stlqf_state_t *s, const void *x)
     memcpy(s->hist.q[0], x, sizeof s->hist.q[0]);
 }
 
+/* Whether m̂'s mean step per window, over τ_jitter of time, is above jitter_max: the data fix
+ * the mass, but noise moves it (docs/estimators/stlqf.md). The first window's step, from
+ * m0, is not counted. */
+static uint8_t noisy_f32(stlqf_state_t *s, float step)
+{
+    stlqf_f32_t *f = &s->u.f32;
+    if (!s->solved) {
+        s->solved = 1;
+        f->jitter = 0.0f;
+        return 0;
+    }
+    f->jitter += f->jitter_a * (step - f->jitter);
+    return f->jitter_max > 0.0f && f->jitter > f->jitter_max;
+}
+
+/* noisy_f32 in Q16: the step's magnitude held to 2^30 (16384 kg), so the mean stays there. */
+static uint8_t noisy_q(stlqf_state_t *s, int32_t m_last)
+{
+    stlqf_q_t *q = &s->u.q;
+    if (!s->solved) {
+        s->solved = 1;
+        q->jitter = 0;
+        return 0;
+    }
+    uint8_t st = 0; /* |step - mean| < 2^30: nothing saturates */
+    int32_t d = fx_sub(q->theta[1], m_last, &st);
+    uint32_t mag = d < 0 ? (uint32_t)0 - (uint32_t)d : (uint32_t)d;
+    mag = mag < ((uint32_t)1 << 30) ? mag : (uint32_t)1 << 30;
+    q->jitter += fx_mul16((int32_t)mag - q->jitter, q->jitter_a, 15, &st);
+    return q->jitter_max > 0 && q->jitter > q->jitter_max;
+}
+
 static uint8_t step_f32(stlqf_state_t *s, const uint8_t *in, uint8_t *out)
 {
     float psi[3], z, log_cond = 0.0f;
@@ -710,7 +751,12 @@ static uint8_t step_f32(stlqf_state_t *s, const uint8_t *in, uint8_t *out)
         const float x[3] = {psi[0], psi[1], z};
         push(s, x);
         if (s->n_rows == STLQF_ROWS) {
-            status |= solve_f32(s, &log_cond);
+            float m_last = s->u.f32.theta[1];
+            uint8_t solved = solve_f32(s, &log_cond);
+            status |= solved;
+            if (!(solved & STATUS_SINGULAR) && noisy_f32(s, fabsf(s->u.f32.theta[1] - m_last))) {
+                status |= STATUS_ILL_CONDITIONED;
+            }
         }
     }
     const float *theta = s->u.f32.theta;
@@ -726,7 +772,12 @@ static uint8_t step_q(stlqf_state_t *s, const uint8_t *in, uint8_t *out)
     longit_inputs_q(&s->u.q.shared, in, x, &st);
     push(s, x);
     if (s->n_rows == STLQF_ROWS) {
-        st |= solve_q(s, &log_cond);
+        int32_t m_last = s->u.q.theta[1];
+        uint8_t solved = solve_q(s, &log_cond);
+        st |= solved;
+        if (!(solved & STATUS_SINGULAR) && noisy_q(s, m_last)) {
+            st |= STATUS_ILL_CONDITIONED;
+        }
     }
     const int32_t *theta = s->u.q.theta;
     longit_outputs_q(&s->u.q.shared, theta[1], THETA_Q, theta[3], theta[5], THETA_Q, out, &st);

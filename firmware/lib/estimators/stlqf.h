@@ -18,9 +18,10 @@
  *
  * Inputs  v [m/s] Q24, v̇ [m/s²] Q24, z [N] Q14.  Outputs m̂ [kg] Q16, Ĉ_dA_f [m²] Q16,
  * β̂_r [deg] Q20, log10 cond Q24.  Params  χ1, χ2, a11 a12 a13 a22 a23 a33, μ,
- * μ_min, held_max, then longit's (ε, ρ, g, m0, C_dA_f0, T, prefilter Hz).
- * ILL_CONDITIONED: the prior's share of m̂, μ G_mm [(G + μ diag G)⁻¹]_mm, is above
- * held_max (the window's data do not determine the mass). */
+ * μ_min, held_max, jitter_max, τ_jitter, then longit's (ε, ρ, g, m0, C_dA_f0, T,
+ * prefilter Hz). ILL_CONDITIONED: the prior's share of m̂, μ G_mm [(G + μ diag G)⁻¹]_mm,
+ * is above held_max (the window's data do not determine the mass), or m̂'s mean step per
+ * window over τ_jitter of time is above jitter_max kg (noise moves it). */
 #ifndef VEHIL_ESTIMATORS_STLQF_H
 #define VEHIL_ESTIMATORS_STLQF_H
 
@@ -39,6 +40,7 @@
 typedef struct {
     float c1, c2; /* χ1/T, χ2/T² */
     float mu, mu_max, mu_min, held_max; /* μ: this window's, between mu_min and mu_max */
+    float jitter, jitter_a, jitter_max;  /* m̂'s mean step (kg), its weight T / τ, the flag's */
     uint32_t band[STLQF_ROWS][3]; /* R(i, i + d) as a block (linalg/bfp24) */
     int16_t e_band;               /* its exponent */
     uint32_t x_g[2][STLQF_ROWS]; /* X's columns of g/cos ε (constant: its filters are exact) */
@@ -50,6 +52,8 @@ typedef struct {
 typedef struct {
     int32_t c1, c2;             /* χ1/T Q16, χ2/T² Q6 */
     int32_t mu, mu_max, mu_min, held_max; /* Q30 */
+    int32_t jitter, jitter_max;           /* m̂'s mean step and the flag's bound, Q16 kg */
+    int16_t jitter_a;                     /* its weight T / τ, Q15 */
     int16_t band[STLQF_ROWS][3]; /* R scaled to |R_ij| < 2^14 */
     int16_t x_g[2][STLQF_ROWS];  /* X's g/cos ε columns */
     int8_t e_g[2];               /* their exponents */
@@ -79,6 +83,7 @@ typedef struct {
         stlqf_row_q_t q[STLQF_ROWS];
     } rows; /* a ring: the oldest at head once full */
     uint8_t mode, n_hist, n_rows, head;
+    uint8_t solved; /* a window solved since the reset: m̂'s steps count from the second */
 } stlqf_state_t;
 
 /* The window's rows in int32, one exponent per input (the largest row's, into peak[3]):

@@ -148,6 +148,16 @@ STLQF_PARAMS = (
         hi=1.0,
         doc="ILL_CONDITIONED above this prior's share of m̂",
     ),
+    Param(
+        "jitter_max",
+        "kg",
+        q=16,
+        default=0.5,
+        lo=0.0,
+        hi=1e4,
+        doc="ILL_CONDITIONED while m̂'s mean step passes this (0: off)",
+    ),
+    Param("tau_jitter", "s", q=16, default=0.5, lo=1e-3, hi=100.0, doc="that mean's memory"),
     *SHARED_PARAMS,
 )
 CODE_WEIGHTS = {"a11": 1.0, "a12": -1.0, "a13": -1.0, "a22": 2.0, "a23": 1.0, "a33": 3.0}
@@ -286,6 +296,7 @@ class Stlqf:
         self.exact_cond: list[float] = []
         self.flags = 0
         self.held = 1.0  # the prior's share of m̂ in the last window
+        self.jitter = -1.0  # m̂'s mean step (kg), < 0 until a window has been solved
         self.mu = p["mu"]  # this window's: held until the data show they fix the mass
 
     def _filtered(self, x: np.ndarray, x1: np.ndarray, x2: np.ndarray) -> np.ndarray:
@@ -313,6 +324,17 @@ class Stlqf:
         phi[:, 1::2] = rows[:, 0:3]
         x, r = self.R @ phi, self.R @ rows[:, 6]
         return x.T @ x, x.T @ r
+
+    def noisy(self, step: float) -> bool:
+        """Whether m̂'s mean step per window, over tau_jitter of time, passes jitter_max: the
+        window's data fix the mass, but noise moves it (docs/estimators/stlqf.md). The first
+        window's step, from m0, is not counted."""
+        p = self.p
+        if self.jitter < 0.0:
+            self.jitter = 0.0
+            return False
+        self.jitter += min(p["T"] / p["tau_jitter"], 1.0) * (step - self.jitter)
+        return p["jitter_max"] > 0.0 and self.jitter > p["jitter_max"]
 
     def step(self, u: np.ndarray) -> np.ndarray:
         p = self.p
@@ -342,8 +364,11 @@ class Stlqf:
                 self.held = prior_share(low, mu)
                 if self.held > p["held_max"]:
                     self.flags |= ILL_CONDITIONED
+                m_last = self.theta[MASS]
                 self.theta[order] = d[order] * y
                 self.mu = next_mu(float(low[-1, -1] ** 2), mu, p)
+                if self.noisy(abs(self.theta[MASS] - m_last)):
+                    self.flags |= ILL_CONDITIONED
         theta = self.theta[1::2]
         return np.array([theta[0], theta[1], grade_deg(theta, p), log_cond])
 
