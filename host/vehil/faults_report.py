@@ -43,8 +43,10 @@ RATES = (1e-3, 1e-2)
 
 
 def measure(
-    board: str, kind: str, rate: float, pings: int = 100, samples: int = 2000
+    board: str, kind: str, rate: float, pings: int = 100, samples: int = 2000, retries: int = 3
 ) -> dict[str, Any]:
+    """One fault class at one rate (see the module's doc); `retries`: how many times each
+    PING of the second round may be sent again."""
     rng = random.Random(1)
     timeout_s = 0.1 if board == "simavr" else 0.3
     with open_board(
@@ -63,7 +65,7 @@ def measure(
         recovered = 0
         for _ in range(pings):
             with contextlib.suppress(LinkError):  # all retries lost: counted as not recovered
-                echo = link.request("PING", retries=3, payload=b"again").fields()["payload"]
+                echo = link.request("PING", retries=retries, payload=b"again").fields()["payload"]
                 recovered += echo == b"again"
         link.configure("passthrough", "F32")
         streamed, loss, resent = 0, "", link.retried

@@ -11,16 +11,22 @@ from vehil.faults_report import measure
 pytestmark = pytest.mark.hil
 
 RATE = 1e-2  # per byte, both directions
+# A PING exchange ("again": 34 bytes on the wire) gets through a try 0.68-0.71 of the time
+# at RATE on simavr (1,500 a class), so 16 tries all fail for 1 PING in ~10^8; they span
+# 4-7 s (timeouts and backoff), longer than a loaded host stalls a board. With 4 tries,
+# "85 % recovered" failed 1 CI run in ~4,000 on the fault rate alone, more under load.
+RETRIES = 15
 
 
 @pytest.mark.parametrize("board", ["simavr", "qemu"])
 @pytest.mark.parametrize("kind", ["drop", "flip", "dup", "insert"])
 def test_each_fault_class_is_detected_and_nothing_wrong_is_accepted(board, kind) -> None:  # noqa: ANN001
     simavr = board == "simavr"
-    r = measure(board, kind, RATE, pings=30 if simavr else 20, samples=150 if simavr else 40)
+    pings, samples = (30, 150) if simavr else (20, 40)
+    r = measure(board, kind, RATE, pings=pings, samples=samples, retries=RETRIES)
     assert r["injected"] > 0 and r["detected"] > 0 and r["ok"] > 0
     assert r["wrong"] == 0, "a corrupted reply was accepted"
-    assert r["recovered"] >= 0.85 * r["sent"]  # PINGs are sent again; 0.62 get through a try
+    assert r["recovered"] == r["sent"]  # every PING lost on a try is sent again until it is back
     # Lost samples and replies are sent again: the stream completes, in order, or a
     # sample lost for good is named (never skipped).
     assert r["streamed"] == r["samples"] or "sample" in r["loss"]
