@@ -45,7 +45,8 @@ def _answers(
     "params",
     [
         {"r_w": 0.31, "T": 0.001},  # R ω a 32 × 24 product
-        {"r_w": 1.0, "T": 0.1, "gamma": 1.9, "xi": 0.5, "a": 100.0, "rg0": 100.0},  # a shift
+        # R ω a shift; γ = 1.9 per sample (t_ref = 0), the top of FIXED's range for R_g γ
+        {"r_w": 1.0, "T": 0.1, "gamma": 1.9, "xi": 0.5, "a": 100.0, "rg0": 100.0, "t_ref": 0.0},
         {"r_w": 0.1, "T": 2e-4, "gamma": 1.0001, "xi": 1e-9, "reading": 1.0},
     ],
 )

@@ -8,7 +8,7 @@
 #include "fixmath/fixmath.h"
 #include "proto/wire.h"
 
-enum { P_T, P_RW, P_WHEEL, P_GAMMA, P_XI, P_RG0, P_A, P_SIGN, P_READING, P_TREF, N_PARAMS };
+enum { P_T, P_RW, P_WHEEL, P_GAMMA, P_XI, P_RG0, P_A, P_SIGN, P_READING, P_TREF, P_EDB, N_PARAMS };
 
 #define ONE_Q30 (INT32_C(1) << 30)
 #define ONE_Q24 (INT32_C(1) << 24)
@@ -16,22 +16,25 @@ enum { P_T, P_RW, P_WHEEL, P_GAMMA, P_XI, P_RG0, P_A, P_SIGN, P_READING, P_TREF,
 static const ROM param_range_t ranges[N_PARAMS] = {
     {1e-4f, 0.1f, 30},  {0.1f, 1.0f, 24}, {0.0f, 2.0f, 0}, {1.0f, 1.9f, 30}, {0.0f, 1.0f, 30},
     {0.0f, 100.0f, 24}, {0.1f, 100.0f, 24}, {0.0f, 1.0f, 0}, {0.0f, 1.0f, 0}, {0.0f, 1.0f, 30},
+    {0.0f, 10.0f, 24},
 };
 
 #define GAMMA_MAX 1.9f /* R_g γ below 2^32 in FIXED's unsigned Q24 */
-/* γ and ξ per sample: as given (t_ref = 0, the paper: eqs. 39-40 act per sample), or rates
- * per t_ref of time raised to T / t_ref, so the filter is the same at any sample time
- * (docs/estimators/manf.md). */
-static void per_sample(const uint8_t *params, uint8_t mode, float *gamma, float *xi)
+/* γ and ξ per sample: as given (t_ref = 0, the paper: eqs. 39-40 act per sample, or t_ref =
+ * T, exactly), or rates per t_ref of time raised to T / t_ref, so the filter is the same at
+ * any sample time (docs/estimators/manf.md). Returns whether they were raised. */
+static uint8_t per_sample(const uint8_t *params, uint8_t mode, float *gamma, float *xi)
 {
     *gamma = param_value(params, P_GAMMA, mode, 30);
     *xi = param_value(params, P_XI, mode, 30);
     float t_ref = param_value(params, P_TREF, mode, 30);
-    if (t_ref > 0.0f) {
-        float k = param_value(params, P_T, mode, 30) / t_ref;
-        *gamma = param_pow(*gamma, k);
-        *xi = param_pow(*xi, k);
+    float T = param_value(params, P_T, mode, 30);
+    if (t_ref <= 0.0f || T == t_ref) {
+        return 0;
     }
+    *gamma = param_pow(*gamma, T / t_ref);
+    *xi = param_pow(*xi, T / t_ref);
+    return 1;
 }
 
 /* Eqs. 39-42: the gain follows the error's sign pattern. Returns the new sign memory. */
@@ -69,8 +72,9 @@ static uint8_t step_f32(manf_state_t *st, const uint8_t *in, uint8_t *out)
         s->v = p->r_w * w; /* v̂(0) = R ω(0) */
     } else {
         float e = s->v - p->r_w * w;
-        uint8_t grow;
-        st->s_prev = adapt_sign(st->s_prev, sign_f32(e), &grow);
+        uint8_t grow; /* an error within ±e_db carries no sign */
+        int8_t sign = (bits_of(e) & 0x7fffffffu) > bits_of(p->e_db) ? sign_f32(e) : 0;
+        st->s_prev = adapt_sign(st->s_prev, sign, &grow);
         if (grow == 2u) {
             s->rg *= p->gamma;
         } else if (grow == 1u) {
@@ -122,8 +126,10 @@ static uint8_t step_q(manf_state_t *st, const uint8_t *in, uint8_t *out)
         s->v = v_w;
     } else {
         int32_t e = fx_sub(s->v, v_w, &status); /* Q24 */
-        uint8_t grow;
-        st->s_prev = adapt_sign(st->s_prev, e < 0 ? -1 : (int8_t)(e != 0), &grow);
+        uint32_t mag_e = e < 0 ? (uint32_t)0 - (uint32_t)e : (uint32_t)e;
+        uint8_t grow; /* an error within ±e_db carries no sign */
+        int8_t sign = mag_e > (uint32_t)p->e_db ? (e < 0 ? -1 : 1) : 0;
+        st->s_prev = adapt_sign(st->s_prev, sign, &grow);
         /* R_g γ = R_g + R_g (γ - 1), R_g ξ = R_g - R_g (1 - ξ): R_g >= 0 always (R_g(0), γ
          * and ξ are), below 2^31 and R_g γ below 2^32, clamped to a next */
         uint32_t rg = (uint32_t)s->rg;
@@ -139,7 +145,6 @@ static uint8_t step_q(manf_state_t *st, const uint8_t *in, uint8_t *out)
         /* The step's magnitude R_g T |tanh e| (reading A: R_g |tanh e|), Q24, then its sign:
          * T |tanh e| in Q24 is below 1 and R_g below 2^31, so it cannot saturate, and one
          * compare clamps it. */
-        uint32_t mag_e = e < 0 ? (uint32_t)0 - (uint32_t)e : (uint32_t)e;
         uint32_t step = st->reading ? fx_umul16_q15(rg, fx_tanh_abs_q15(mag_e, 24))
                                     : fx_umul_q24(rg, t_tanh(p, mag_e) << 1);
         if (step > (uint32_t)p->limit) {
@@ -175,7 +180,7 @@ static uint8_t manf_configure(void *state, uint8_t mode, const uint8_t *params)
         return bad;
     }
     float gamma, xi;
-    per_sample(params, mode, &gamma, &xi);
+    uint8_t raised = per_sample(params, mode, &gamma, &xi);
     if (gamma > GAMMA_MAX * 1.000001f) { /* param_pow's last bits: 1.9 itself passes */
         return (uint8_t)(P_TREF + 1u); /* a rate per t_ref past 1.9 per sample */
     }
@@ -191,13 +196,14 @@ static uint8_t manf_configure(void *state, uint8_t mode, const uint8_t *params)
             .xi = xi,
             .rg0 = get_f32(params + 4u * P_RG0),
             .a = get_f32(params + 4u * P_A),
+            .e_db = get_f32(params + 4u * P_EDB),
         };
         st->u.f32.p.limit = st->u.f32.p.a * st->u.f32.p.T;
     } else {
         manf_params_q_t *p = &st->u.q.p;
         int32_t gamma_q = param_q(params, P_GAMMA), xi_q = param_q(params, P_XI);
         uint8_t sat = 0; /* cannot: γ <= 1.9, ξ <= 1, T <= 0.1 */
-        if (param_q(params, P_TREF) > 0) { /* the rates per sample, to Q30 */
+        if (raised) { /* the rates per sample, to Q30 */
             gamma_q = fx_from_float(gamma, 30, &sat);
             xi_q = fx_from_float(xi, 30, &sat);
         }
@@ -212,6 +218,7 @@ static uint8_t manf_configure(void *state, uint8_t mode, const uint8_t *params)
         p->r_w = param_q(params, P_RW);
         p->rg0 = param_q(params, P_RG0);
         p->a = param_q(params, P_A);
+        p->e_db = param_q(params, P_EDB);
         p->limit = (int32_t)fx_umul_q24((uint32_t)p->a, T); /* eq. 43 */
     }
     manf_reset(st);

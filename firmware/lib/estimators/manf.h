@@ -6,7 +6,8 @@
  *
  * Inputs  ω_f, ω_r [rad/s] Q16.   Outputs v̂ [m/s] Q16, R_g [m/s²] Q24.
  * Params  T Q30, r_w Q24, wheel Q0, γ Q30, ξ Q30, R_g(0) Q24, a Q24, printed_sign Q0,
- *         reading Q0, t_ref Q30 (0: γ, ξ per sample; > 0: per t_ref, rate-normalised). Fixed point: tanh from fx_tanh, |error| <= 7e-4. */
+ *         reading Q0, t_ref Q30 (0: γ, ξ per sample; > 0: per t_ref, rate-normalised),
+ *         e_db Q24 (errors within ±e_db carry no sign for the adaptation). Fixed point: tanh from fx_tanh, |error| <= 7e-4. */
 #ifndef VEHIL_ESTIMATORS_MANF_H
 #define VEHIL_ESTIMATORS_MANF_H
 
@@ -19,6 +20,7 @@
 
 typedef struct {
     float T, r_w, gamma, xi, rg0, a;
+    float e_db; /* errors within ±e_db carry no sign */
     float limit; /* a T: the largest step of v̂ (eq. 43) */
 } manf_params_f32_t;
 
@@ -35,6 +37,7 @@ typedef struct {
     int32_t r_w;    /* Q24 */
     int32_t rg0;    /* Q24 */
     int32_t a;      /* Q24 */
+    int32_t e_db;   /* Q24: errors within ±e_db carry no sign */
     int32_t limit;  /* a T, Q24: the largest step of v̂ (eq. 43) */
 } manf_params_q_t;
 

@@ -26,10 +26,10 @@ MODES = ("F32", "FIXED")
 Rule = Callable[[Mapping[str, float], str], str | None]
 
 
-def t_ref_param(doc: str) -> Param:
+def t_ref_param(doc: str, default: float = 0.0) -> Param:
     """`t_ref`: 0, the estimator's rates act per sample; > 0, they are rates per t_ref
     seconds of time, raised to T / t_ref a step, so the filter is the same at any T."""
-    return Param("t_ref", "s", q=30, default=0.0, lo=0.0, hi=1.0, doc=doc)
+    return Param("t_ref", "s", q=30, default=default, lo=0.0, hi=1.0, doc=doc)
 
 
 class Reference(Protocol):

@@ -2,11 +2,14 @@
 
 MANF (the paper's Sec. 3.2, eqs. 39-44) tracks the wheel's circumferential speed R ω with a
 rate-limited tanh law and an adaptive gain R_g: ×γ while the error keeps its sign, ×ξ when
-it flips, R_g in [0, a], |v̂(k) - v̂(k-1)| <= a T. The printed update (eq. 44) has the wrong
-feedback sign and leaves out T; by default this builds the corrected law (reading
-B: v̂ -= T R_g tanh(v̂ - R ω); docs/estimators/manf.md), with switches for the printed
-sign, the literal reading A (no T: R_g in m/s per step) and the wheel used (front, rear,
-or the faster of the two). The ANF of [3] (eq. 38: sgn and a fixed gain) is the baseline.
+it flips, R_g in [0, a], |v̂(k) - v̂(k-1)| <= a T. Beyond the paper, by default: γ and ξ
+are rates per t_ref = 1 ms of time (the same filter at any sample time), and an error
+within ±e_db (the wheel speed's noise) carries no sign, so noise neither grows nor
+shrinks R_g (docs/estimators/manf.md, "Sample time and noise"). The printed update
+(eq. 44) has the wrong feedback sign and leaves out T; by default this builds the
+corrected law (reading B: v̂ -= T R_g tanh(v̂ - R ω)), with switches for the printed sign,
+the literal reading A (no T: R_g in m/s per step) and the wheel used (front, rear, or the
+faster of the two). The ANF of [3] (eq. 38: sgn and a fixed gain) is the baseline.
 """
 
 from __future__ import annotations
@@ -77,7 +80,7 @@ class Manf:
             self.v = v_w  # v̂(0) = R ω(0)
             return np.array([self.v, self.rg])
         e = self.v - v_w  # the a-priori error, for the law and the adaptation (manf.md)
-        s = int(np.sign(e))
+        s = int(np.sign(e)) if abs(e) > p["e_db"] else 0  # within the band: no sign
         if self.s_prev != 0 and s != 0:
             self.rg *= self.gamma if s == self.s_prev else self.xi
         self.rg = min(max(self.rg, 0.0), p["a"])
@@ -136,7 +139,17 @@ SPEC = register(
             Param("printed_sign", "1", q=0, default=0, lo=0, hi=1, doc="1: eq. 44's sign"),
             Param("reading", "1", q=0, default=0, lo=0, hi=1, doc="0: T R_g (B), 1: R_g (A)"),
             t_ref_param(
-                "0: γ, ξ per sample (the paper); > 0: per t_ref, as γ^(T/t_ref), ξ^(T/t_ref)"
+                "0: γ, ξ per sample (the paper); > 0: per t_ref, as γ^(T/t_ref), ξ^(T/t_ref)",
+                default=0.001,
+            ),
+            Param(
+                "e_db",
+                "m/s",
+                q=24,
+                default=0.2,
+                lo=0.0,
+                hi=10.0,
+                doc="errors within ±e_db carry no sign for eqs. 39-40 (~3 r_w σ_ω); 0: the paper",
             ),
         ),
         rules=(gamma_within_range,),
