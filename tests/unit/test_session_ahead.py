@@ -21,8 +21,12 @@ def test_items_come_in_order_and_are_made_ahead_while_the_consumer_waits() -> No
 
     it = _made_ahead(items(), depth=4)
     assert next(it) == 0
-    time.sleep(0.2)  # the consumer busy elsewhere: the maker fills the queue meanwhile
-    assert len(made) >= 5  # the one taken, four queued, perhaps one more waiting to go in
+    # The consumer busy elsewhere: the maker fills the queue meanwhile (the one taken, four
+    # queued), however long a loaded host keeps its thread waiting (it can for 0.2 s).
+    deadline = time.monotonic() + 30
+    while len(made) < 5 and time.monotonic() < deadline:
+        time.sleep(0.01)
+    assert len(made) >= 5
     assert list(it) == list(range(1, 10))
 
 

@@ -3,6 +3,7 @@ which it is built on, throws that away."""
 
 from __future__ import annotations
 
+import select
 import socket
 import threading
 import time
@@ -19,13 +20,15 @@ BOOT = b"\x03ab\x00"
 @pytest.fixture
 def talking_peer(monkeypatch: pytest.MonkeyPatch):  # noqa: ANN201
     """A peer that sends BOOT the moment it accepts, and a connect that returns only once
-    those bytes have arrived: the race a loaded host loses, made certain."""
+    those bytes have arrived: the race a loaded host loses, made certain. The peer keeps
+    the connection open until the test is done."""
     server = socket.create_server(("127.0.0.1", 0))
+    done = threading.Event()
 
     def serve() -> None:
         conn, _ = server.accept()
         conn.sendall(BOOT)
-        time.sleep(2.0)  # open past the reads below
+        done.wait()
         conn.close()
 
     threading.Thread(target=serve, daemon=True).start()
@@ -33,11 +36,13 @@ def talking_peer(monkeypatch: pytest.MonkeyPatch):  # noqa: ANN201
 
     def connect_then_wait(*args, **kwargs):  # noqa: ANN002, ANN003, ANN202
         s = connect(*args, **kwargs)
-        time.sleep(0.2)
+        # waited for, not slept on: a loaded host can keep the peer from sending for 0.2 s
+        assert select.select([s], [], [], 30)[0], "the peer sent nothing"
         return s
 
     monkeypatch.setattr(protocol_socket.socket, "create_connection", connect_then_wait)
     yield server.getsockname()[1]
+    done.set()
     server.close()
 
 
