@@ -17,15 +17,20 @@ pytestmark = pytest.mark.hil
 PINGS = 1_500
 
 
-def _tagged_pings(link, tag: bytes) -> dict:  # noqa: ANN001
-    """PINGs whose payloads carry `tag`, every echo checked; frames the board received."""
+def _tagged_pings(link, tag: bytes, halfway: threading.Barrier) -> dict:  # noqa: ANN001
+    """PINGs whose payloads carry `tag`, every echo checked; frames the board received.
+    Half of them, then `halfway` (every board has sent half of its own), then the rest:
+    the boards' streams overlap however a loaded host schedules them."""
     before = link.stats()["rx_frames"]
     start = time.monotonic()
-    replies = link.pipeline(
-        (("PING", {"payload": tag + i.to_bytes(4, "little")}) for i in range(PINGS)), window=8
-    )
-    echoes = [r.fields()["payload"] for r in replies]
-    assert echoes == [tag + i.to_bytes(4, "little") for i in range(PINGS)]
+    payloads = [tag + i.to_bytes(4, "little") for i in range(PINGS)]
+    echoes = []
+    for part in (payloads[: PINGS // 2], payloads[PINGS // 2 :]):
+        replies = link.pipeline((("PING", {"payload": p}) for p in part), window=8)
+        echoes += [r.fields()["payload"] for r in replies]
+        if part[0] == payloads[0]:
+            halfway.wait(timeout=300)
+    assert echoes == payloads
     after = link.stats()["rx_frames"]
     return {"received": after - before, "start": start, "end": time.monotonic()}
 
@@ -33,12 +38,16 @@ def _tagged_pings(link, tag: bytes) -> dict:  # noqa: ANN001
 def test_two_boards_at_once_each_echo_only_their_own_frames(built) -> None:  # noqa: ANN001
     results: dict[str, dict] = {}
     errors: list[BaseException] = []
+    # Board A could finish its PINGs before B's simavr had booted on a loaded host.
+    halfway = threading.Barrier(2)
 
     def drive(tag: str) -> None:
         try:
             with open_board("simavr", BoardOptions(timeout_s=5.0)) as link:
-                results[tag] = {"port": link.port.port, **_tagged_pings(link, tag.encode())}
+                pings = _tagged_pings(link, tag.encode(), halfway)
+                results[tag] = {"port": link.port.port, **pings}
         except BaseException as exc:  # reported in the main thread
+            halfway.abort()  # the other board does not wait for this one
             errors.append(exc)
 
     threads = [threading.Thread(target=drive, args=(tag,)) for tag in ("board-A", "board-B")]
