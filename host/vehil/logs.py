@@ -119,7 +119,13 @@ def read_channels(log: LogSource, names: list[str]) -> dict[str, Channel]:
         return {n: Channel(n, t, x, u) for n, (t, x, u) in got.items()}
     if log.format == "csv":
         cols = read_columns(
-            log.path, names, log.time, units_row=log.units_row, time_format=log.time_format
+            log.path,
+            names,
+            log.time,
+            units_row=log.units_row,
+            time_format=log.time_format,
+            delimiter=log.delimiter,
+            decimal=log.decimal,
         )
         t_unit = cols.t_unit or log.time_unit
         if not t_unit:

@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from vehil import estimators, plants, project
+from vehil.csvlog import DELIMITERS
 from vehil.errors import VehilError
 from vehil.estimators.base import MODES, EstimatorSpec
 from vehil.paths import DATA_ROOT
@@ -92,7 +93,9 @@ class LogSource:
     dbc: Path | None = None  # raw CAN: signals are MESSAGE.SIGNAL of this DBC
     time_format: str | None = None  # strptime codes of text time stamps
     time_unit: str | None = None  # the time column's unit, where its header has none
-    units_row: bool = False  # a row of units under the header (asammdf's CSV export)
+    units_row: bool | None = None  # a row of units under the header; None: found as such
+    delimiter: str | None = None  # a CSV's field separator; None: the one its header has
+    decimal: str | None = None  # a CSV's decimal sign; None: the one its numbers have
     max_gap_s: float | None = None  # None: 5 of a channel's median steps
     on_gap: str = "refuse"  # or "split": run the longest stretch without a gap
 
@@ -260,6 +263,8 @@ def _log_source(
         "time_format",
         "time_unit",
         "units_row",
+        "delimiter",
+        "decimal",
         "dbc",
         "max_gap_s",
         "on_gap",
@@ -279,8 +284,8 @@ def _log_source(
     dbc = (base / lg.text("dbc")).resolve() if "dbc" in lg.table else None
     if fmt in ("blf", "asc", "candump") and dbc is None:
         raise lg.fail("dbc", f"a {fmt} log holds raw CAN frames: name the DBC that decodes them")
-    units_row = lg.table.get("units_row", preset.get("units_row", False))
-    if not isinstance(units_row, bool):
+    units_row = lg.table.get("units_row", preset.get("units_row"))
+    if not isinstance(units_row, bool | None):
         raise lg.fail("units_row", f"must be true or false, got {units_row!r}")
     return LogSource(
         path=log_path,
@@ -294,6 +299,8 @@ def _log_source(
         else preset.get("time_format"),
         time_unit=lg.text("time_unit") if "time_unit" in lg.table else None,
         units_row=units_row,
+        delimiter=lg.text("delimiter", choices=DELIMITERS) if "delimiter" in lg.table else None,
+        decimal=lg.text("decimal", choices=(".", ",")) if "decimal" in lg.table else None,
         max_gap_s=lg.number("max_gap_s", lo=1e-6) if "max_gap_s" in lg.table else None,
         on_gap=lg.text("on_gap", "refuse", choices=("refuse", "split")),
     )

@@ -330,3 +330,89 @@ def test_a_logger_spelling_stays_itself_under_a_derivative_or_a_radius() -> None
     assert units.same("m/s²", "m/s^2") and not units.known("furlong/fortnite")
     with pytest.raises(units.UnitError, match="'g' does not convert to 'm/s'"):
         units.convert(one, "g", "m/s")
+
+
+PLAIN = "t [s],speed [1]\n0,1.5\n0.1,2.5\n0.2,-3.25\n0.3,4e-1\n"
+
+
+@pytest.mark.parametrize(
+    "data",
+    [
+        # Excel in a German or French locale: `;`, decimal commas, CRLF, its BOM
+        "\ufefft [s];speed [1]\r\n0;1,5\r\n0,1;2,5\r\n0,2;-3,25\r\n0,3;4e-1\r\n".encode(),
+        # ... with Excel's `sep=` line, and blank lines at the end
+        b"sep=;\nt [s];speed [1]\n0;1,5\n0,1;2,5\n0,2;-3,25\n0,3;0,4\n\n\n",
+        # comma-separated with the decimal commas quoted; a trailing delimiter
+        b't [s],speed [1],\n"0","1,5",\n"0,1","2,5",\n"0,2","-3,25",\n"0,3","0,4",\n',
+        # tab-separated, as Excel's "Unicode text": UTF-16 with its BOM
+        "t [s]\tspeed [1]\r\n0\t1.5\r\n0.1\t2.5\r\n0.2\t-3.25\r\n0.3\t0.4\r\n".encode("utf-16"),
+        # a row of units under the header, bracketed or not, found as such
+        b"t,speed\n[s],[1]\n0,1.5\n0.1,2.5\n0.2,-3.25\n0.3,0.4\n",
+        b"t;speed\nms;1\n0;1,5\n100;2,5\n200;-3,25\n300;0,4\n",
+        # time of day, with a decimal comma, across midnight
+        b"t;speed [1]\n23:59:59,9;1,5\n00:00:00,0;2,5\n00:00:00,1;-3,25\n00:00:00,2;0,4\n",
+    ],
+    ids=["de-excel", "sep-line", "quoted", "utf16-tab", "units-row", "units-row-ms", "midnight"],
+)
+def test_real_loggers_exports_read_as_the_plain_csv(tmp_path, data: bytes) -> None:  # noqa: ANN001
+    plain = trace_from_log(log(csv(tmp_path, PLAIN, "plain.csv")), SPEC, 0.1, math.inf)
+    path = tmp_path / "drive.csv"
+    path.write_bytes(data)
+    got = trace_from_log(log(path), SPEC, 0.1, math.inf)
+    np.testing.assert_allclose(got.t, plain.t, atol=1e-9)
+    np.testing.assert_allclose(got.signals["y"], plain.signals["y"], atol=1e-9)
+
+
+def test_a_windows_ansi_export_keeps_its_degree_sign(tmp_path) -> None:  # noqa: ANN001
+    from vehil.csvlog import read_columns
+
+    path = tmp_path / "drive.csv"
+    path.write_bytes("t [s];yaw rate [°/s]\n0;1,5\n0,1;2\n".encode("cp1252"))
+    cols = read_columns(path, ["yaw rate"], "t")
+    assert cols.units == {"yaw rate": "°/s"}
+    np.testing.assert_allclose(cols.values["yaw rate"], [1.5, 2.0])
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        (
+            "t [s];a,b [1]\n0,1;2\n0,2;3\n",
+            r"line 1: the header splits by ',' into 2 and by ';' into 2 columns, and the first "
+            r'rows split alike by each: say which delimiter the file uses: \[log\] delimiter = ";"',
+        ),
+        (
+            "t [s];speed [1]\n0;1,5\n0.1;2\n",
+            r"numbers with a decimal comma \(line 2, column speed \[1\]: '1,5'\) and with a "
+            r"decimal point \(line 3, column t \[s\]: '0.1'\): export the file again",
+        ),
+        (
+            "t [s];speed [1]\n1;1,250\n2;2,500\n",
+            r"line 2, column speed \[1\]: '1,250' is 1.250 with a decimal comma or 1250 with a "
+            r'thousands separator, and no other number says which: set \[log\] decimal = ","',
+        ),
+        (
+            "t [s];speed [1]\n0;1,5\n0,1;1.250,5\n",
+            r"line 3, column speed: '1.250,5' is not a number in this file, whose decimal sign "
+            r"is ','",
+        ),
+    ],
+    ids=["delimiter", "mixed-decimals", "thousands-or-decimal", "grouped"],
+)
+def test_a_csv_whose_delimiter_or_decimal_sign_is_open_is_refused_saying_what_to_set(
+    tmp_path,  # noqa: ANN001
+    text: str,
+    message: str,
+) -> None:
+    path = csv(tmp_path, text)
+    with pytest.raises(LogError, match=message):
+        trace_from_log(log(path, columns={"y": "speed"}), SPEC, 1.0, math.inf)
+
+
+def test_the_scenario_settles_a_delimiter_or_decimal_sign_the_file_leaves_open(tmp_path) -> None:  # noqa: ANN001
+    path = csv(tmp_path, "t [s];speed [1]\n1;1,250\n2;2,500\n")
+    trace = trace_from_log(log(path, decimal=","), SPEC, 1.0, math.inf)
+    np.testing.assert_allclose(trace.signals["y"], [1.25, 2.5])
+    path = csv(tmp_path, "t [s];a,b [1]\n0;1\n1;2\n")
+    trace = trace_from_log(log(path, delimiter=";", columns={"y": "a,b"}), SPEC, 1.0, math.inf)
+    np.testing.assert_allclose(trace.signals["y"], [1, 2])

@@ -148,13 +148,24 @@ def test_a_gps_log_from_csv_gives_the_grade_the_paper_pipeline_gives(tmp_path) -
     np.testing.assert_allclose(trace.truth["grade"], expected, atol=1e-9)
 
 
-def test_a_gps_log_with_a_wrong_unit_is_refused_naming_file_and_column(tmp_path) -> None:  # noqa: ANN001
+def test_a_gps_log_in_other_units_is_converted_and_a_wrong_one_refused(tmp_path) -> None:  # noqa: ANN001
     from vehil.scenario import ScenarioError
 
+    def grade(text: str) -> np.ndarray:
+        sc = _scenario(tmp_path, text)
+        return plants.get("longitudinal").run(sc.plant_params, 2.0, 0.01, 1).truth["grade"]
+
+    rows = [(k, 3.6 * k, 100 + 0.5 * k) for k in range(12)]
+    in_si = "t [s],speed [m/s],altitude [m]\n" + "".join(f"{t},{v / 3.6},{a}\n" for t, v, a in rows)
+    # a German spreadsheet's export: `;`, decimal commas, km/h and altitude in feet
+    de = "t [s];speed [km/h];altitude [ft]\n" + "".join(
+        f"{t};{v:.1f};{a / 0.3048!r}\n".replace(".", ",") for t, v, a in rows
+    )
+    np.testing.assert_allclose(grade(de), grade(in_si), atol=1e-9)
     with pytest.raises(
-        ScenarioError, match=r"drive.csv: column 'speed' is in 'km/h'; gps needs 'm/s'"
+        ScenarioError, match=r"drive.csv: column 'speed' is in 'm'; gps needs 'm/s' \("
     ):
-        _scenario(tmp_path, "t [s],speed [km/h],altitude [m]\n0,0,100\n1,5,101\n")
+        _scenario(tmp_path, "t [s],speed [m],altitude [m]\n0,0,100\n1,5,101\n")
 
 
 def _drive_errors(p: dict[str, float], plant: dict[str, float]) -> tuple[np.ndarray, float]:

@@ -22,6 +22,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
+from vehil import units
 from vehil.csvlog import LogError, read_csv
 from vehil.spec import Param, Signal, resolve_params
 
@@ -69,12 +70,16 @@ class FileInput:
                     f"{path}: no column {col.name!r} ({self.name} needs "
                     f"{', '.join(f'{c.name} [{c.unit}]' for c in self.columns)})"
                 )
-            if table.units[col.name] != col.unit:
-                raise LogError(
-                    f"{path}: column {col.name!r} is in {table.units[col.name]!r}; "
-                    f"{self.name} needs {col.unit!r}"
-                )
-            x = table.values[col.name]
+            x, have = table.values[col.name], table.units[col.name]
+            if have != col.unit:
+                try:
+                    x = units.convert(x, have, col.unit)  # km/h, ft: to what the plant takes
+                except units.UnitError as exc:
+                    what = f"is in {have!r}" if have else "has no unit"
+                    raise LogError(
+                        f"{path}: column {col.name!r} {what}; {self.name} needs {col.unit!r}"
+                        + (f" ({exc})" if have else f": write `{col.name} [{col.unit}]`")
+                    ) from None
             if not np.all(np.isfinite(x)):
                 raise LogError(f"{path}: column {col.name!r} has NaN/inf on line {_first_bad(x)}")
             out[col.name] = x
