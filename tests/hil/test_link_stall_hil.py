@@ -14,7 +14,6 @@ import os
 import signal
 import struct
 import threading
-import time
 
 import pytest
 
@@ -34,21 +33,20 @@ def test_a_stalled_board_is_never_sent_more_than_its_rx_buffer_holds(built) -> N
         link.configure("passthrough", "F32")
         overruns_before = link.stats()["overruns"]
 
-        def stall() -> None:
-            os.kill(pid, signal.SIGSTOP)
-            time.sleep(STALL_S)
-            os.kill(pid, signal.SIGCONT)
-
-        # The stall starts mid-stream, counted in samples: on a quiet host all 3,000 can
-        # pass in a quarter of a second, so a stall timed in seconds could come too late.
+        # The stall starts mid-stream, counted in samples and sent from this thread: on a
+        # quiet host all 3,000 can pass in a quarter of a second, so a stall timed in
+        # seconds, or started by a thread a loaded host is slow to run, could come too late.
         stall_at = SAMPLES // 10
+        wake = threading.Timer(STALL_S, os.kill, (pid, signal.SIGCONT))
+        wake.daemon = True
         wrong = taken = most_in_flight = 0
         inputs = (struct.pack("<4f", k, k, k, k) for k in range(SAMPLES))
         # 40 retries: with the backoff, ~10 s of silence before the board counts as lost.
         samples = (("SAMPLE", {"inputs": x}) for x in inputs)
         for k, reply in enumerate(link.pipeline(samples, retries=40)):
             if k == stall_at:
-                threading.Thread(target=stall, daemon=True).start()
+                os.kill(pid, signal.SIGSTOP)
+                wake.start()
             wrong += reply.fields()["outputs"] != struct.pack("<4f", k, k, k, k)
             taken += 1
             most_in_flight = max(most_in_flight, link.in_flight)
