@@ -635,11 +635,13 @@ static void stlqf_reset(void *state)
             s->u.f32.theta[2u * l + 1u] = theta0[l];
         }
         s->u.f32.mu = s->u.f32.mu_max;
+        s->u.f32.jitter = 0.0f;
     } else {
         const longit_q_t *l = &s->u.q.shared;
         uint8_t st = 0;
         memset(s->u.q.theta, 0, sizeof s->u.q.theta);
         s->u.q.mu = s->u.q.mu_max;
+        s->u.q.jitter = 0;
         s->u.q.theta[1] = l->m0;
         s->u.q.theta[3] = fx_rescale(l->cda0, 24, 16, &st);
         s->u.q.theta[5] = fx_mul(l->m0, 16, l->sin_eps, 30, 16, &st);
@@ -709,15 +711,21 @@ static void push(stlqf_state_t *s, const void *x)
     memcpy(s->hist.q[0], x, sizeof s->hist.q[0]);
 }
 
+/* Whether this is the first window solved since the reset, whose step of m̂ is from m0. */
+static uint8_t first_window(stlqf_state_t *s)
+{
+    uint8_t first = !s->solved;
+    s->solved = 1;
+    return first;
+}
+
 /* Whether m̂'s mean step per window, over τ_jitter of time, is above jitter_max: the data fix
  * the mass, but noise moves it (docs/estimators/stlqf.md). The first window's step, from
  * m0, is not counted. */
 static uint8_t noisy_f32(stlqf_state_t *s, float step)
 {
     stlqf_f32_t *f = &s->u.f32;
-    if (!s->solved) {
-        s->solved = 1;
-        f->jitter = 0.0f;
+    if (first_window(s)) {
         return 0;
     }
     f->jitter += f->jitter_a * (step - f->jitter);
@@ -728,9 +736,7 @@ static uint8_t noisy_f32(stlqf_state_t *s, float step)
 static uint8_t noisy_q(stlqf_state_t *s, int32_t m_last)
 {
     stlqf_q_t *q = &s->u.q;
-    if (!s->solved) {
-        s->solved = 1;
-        q->jitter = 0;
+    if (first_window(s)) {
         return 0;
     }
     uint8_t st = 0; /* |step - mean| < 2^30: nothing saturates */
