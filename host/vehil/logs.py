@@ -177,21 +177,41 @@ def clean(ch: Channel, path: Path) -> Channel:
             f"{path}: column {ch.name} has {len(c.t)} samples with a value "
             f"({c.missing} missing); it needs two"
         )
-    back = np.flatnonzero(np.diff(c.t) < 0)
+    d = np.diff(c.t)
+    back = np.flatnonzero(d < 0)
+    done = []
     if len(back):
-        i = back[0] + 1
-        raise LogError(
-            f"{path}: {c.place(i)}: time {c.t[i]:g} s goes back from {c.t[i - 1]:g} s before "
-            "it; time must increase (equal stamps are merged): sort the log by time"
-        )
+        # Stamps a little out of order (a logger interleaving buses or DAQ lists) are
+        # sorted; time that goes back further (a restarted logger, two drives) is refused.
+        half = 0.5 * float(np.median(d[d > 0])) if np.any(d > 0) else 0.0
+        far = back[-d[back] >= half]
+        if len(far):
+            i = far[0] + 1
+            raise LogError(
+                f"{path}: {c.place(i)}: time {_at(c.t[i])} s goes back from {_at(c.t[i - 1])} s "
+                f"before it, half a step or more ({len(far)} such steps): time must increase "
+                "(equal stamps are merged, stamps less than half a step out of order sorted): "
+                "cut the log where its time starts again, or sort it by time"
+            )
+        done.append(f"{len(back)} stamps out of order sorted, first at {c.place(back[0] + 1)}")
+        order = np.argsort(c.t, kind="stable")
+        c.t, c.x = c.t[order], c.x[order]
+        c.lines = c.lines[order] if c.lines is not None else None
     same = np.flatnonzero(np.diff(c.t) == 0)
     if len(same):
         stamps, first, group = np.unique(c.t, return_index=True, return_inverse=True)
         x = np.bincount(group, weights=c.x) / np.bincount(group)
-        c.merged = f"{len(same)} duplicated stamps merged (mean), first at {c.place(same[0] + 1)}"
+        done.append(f"{len(same)} duplicated stamps merged (mean), first at {c.place(same[0] + 1)}")
         c.t, c.x = stamps, x
         c.lines = c.lines[first] if c.lines is not None else None
+    c.merged = "; ".join(done)
     return c
+
+
+def _at(t: float) -> str:
+    """A time in s as a log has it: 6 digits, or to the ms where it is large (an epoch's
+    stamps, 1700000019.9 s, which 6 digits would print as 1.7e+09)."""
+    return f"{t:.6g}" if abs(t) < 1e5 else f"{t:.3f}".rstrip("0").rstrip(".")
 
 
 @dataclass
@@ -249,11 +269,11 @@ def _span(
     span = (first[starts], last[ends])
     notes = []
     if first[starts] > min(first.values()):
-        notes.append(f"the run starts where {starts} starts (t = {first[starts]:.6g} s)")
+        notes.append(f"the run starts where {starts} starts (t = {_at(first[starts])} s)")
     if last[ends] < max(last.values()):
         notes.append(
-            f"the run ends where {ends} ends (t = {last[ends]:.6g} s; the log goes on to "
-            f"{max(last.values()):.6g} s)"
+            f"the run ends where {ends} ends (t = {_at(last[ends])} s; the log goes on to "
+            f"{_at(max(last.values()))} s)"
         )
     gaps = sorted(
         ((n, i) for n, tm in timing.items() for i in tm.gaps), key=lambda g: chans[g[0]].t[g[1]]
@@ -265,7 +285,7 @@ def _span(
     if log.on_gap == "refuse":
         raise LogError(
             f"{log.path}: {c.place(i + 1)}: no value for {c.t[i + 1] - c.t[i]:.3g} s "
-            f"(t = {c.t[i]:.6g} to {c.t[i + 1]:.6g} s), past the {tm.limit:.3g} s a gap may "
+            f"(t = {_at(c.t[i])} to {_at(c.t[i + 1])} s), past the {tm.limit:.3g} s a gap may "
             f"span ({len(gaps)} such gaps): set [log] max_gap_s above it to bridge it by a "
             'straight line, or on_gap = "split" to run the longest stretch without one'
         )
@@ -277,10 +297,10 @@ def _span(
         inside = (c.t >= span[0]) & (c.t <= span[1])
         c.t, c.x = c.t[inside], c.x[inside]
         c.lines = c.lines[inside] if c.lines is not None else None
-    shown = ", ".join(f"{a:.6g}-{b:.6g} s" for a, b in pieces)
+    shown = ", ".join(f"{_at(a)}-{_at(b)} s" for a, b in pieces)
     notes.append(
         f"split at {len(gaps)} gaps longer than max_gap_s: stretches {shown}; "
-        f"running {span[0]:.6g}-{span[1]:.6g} s"
+        f"running {_at(span[0])}-{_at(span[1])} s"
     )
     return span, notes
 
@@ -427,7 +447,7 @@ def trace_from_log(
                 "gaps": _gaps(c, tm),
                 "missing": str(c.missing),
                 "duplicates": c.merged or "0",
-                "logged": f"{c.t[0]:.6g}-{c.t[-1]:.6g} s",
+                "logged": f"{_at(c.t[0])}-{_at(c.t[-1])} s",
                 "resampling": resampled,
             }
         )

@@ -416,3 +416,31 @@ def test_the_scenario_settles_a_delimiter_or_decimal_sign_the_file_leaves_open(t
     path = csv(tmp_path, "t [s];a,b [1]\n0;1\n1;2\n")
     trace = trace_from_log(log(path, delimiter=";", columns={"y": "a,b"}), SPEC, 1.0, math.inf)
     np.testing.assert_allclose(trace.signals["y"], [1, 2])
+
+
+def test_stamps_a_little_out_of_order_are_sorted_and_a_restart_refused(tmp_path) -> None:  # noqa: ANN001
+    # two buses interleaved by the logger: 0.23 comes in before 0.2
+    text = "t [s],speed [1]\n0,0\n0.1,1\n0.23,2.3\n0.2,2\n0.3,3\n0.4,4\n"
+    trace = trace_from_log(log(csv(tmp_path, text)), SPEC, 0.1, math.inf)
+    np.testing.assert_allclose(trace.signals["y"], [0, 1, 2, 3, 4], atol=1e-9)
+    assert (
+        trace.timing[0]["duplicates"]
+        == "1 stamps out of order sorted, first at line 5, column speed"
+    )
+    restarted = "t [s],speed [1]\n" + "".join(f"{k % 30 * 0.1:.1f},{k}\n" for k in range(50))
+    with pytest.raises(
+        LogError,
+        match=r"line 32, column speed: time 0 s goes back from 2.9 s before it, half a step or "
+        r"more \(1 such steps\): .* cut the log where its time starts again",
+    ):
+        trace_from_log(log(csv(tmp_path, restarted)), SPEC, 0.1, math.inf)
+
+
+def test_epoch_stamps_are_named_to_the_ms_in_messages_and_the_report(tmp_path) -> None:  # noqa: ANN001
+    t = 1_700_000_000 + np.r_[np.arange(0, 20, 0.1), np.arange(30, 35, 0.1)]
+    text = "t [s],speed [1]\n" + "".join(f"{x:.1f},1\n" for x in t)
+    path = csv(tmp_path, text)
+    with pytest.raises(LogError, match=r"\(t = 1700000019.9 to 1700000030 s\)"):
+        trace_from_log(log(path), SPEC, 0.1, math.inf)
+    split = trace_from_log(log(path, on_gap="split"), SPEC, 0.1, math.inf)
+    assert split.timing[0]["logged"] == "1700000000-1700000019.9 s"
