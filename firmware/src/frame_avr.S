@@ -8,10 +8,8 @@
 ; in registers for the call); elsewhere the interrupts do, and the loops pay nothing
 ; for it.
 ;
-; uint8_t frame_rx_run(uint32_t *crc, uint8_t *dst, const uint8_t *src, uint8_t k)
-; copies up to k bytes of a COBS block's data from the RX ring into the frame, up
-; to a zero, running the CRC over them; returns how many it took (30 cycles a byte,
-; 32 with the polled variant's service point every second byte, ~41 in C).
+; frame_rx_bytes() decodes a request from the RX ring (below): a block's data byte
+; costs 30 cycles, 32 with the polled variant's service point every second byte.
 ;
 ; frame_tx_run() puts bytes of a frame into the UART's TX ring, COBS-encoded, with
 ; the CRC run over them on the way (36 cycles a byte, 40 with the polled variant's
@@ -67,65 +65,248 @@
         rjmp    \polled
 .endm
 
-        .section .text.frame_rx_run, "ax", @progbits
-        .global frame_rx_run
-frame_rx_run:
+; uint8_t frame_rx_bytes(frame_rx_t *rx, const uint8_t *data, uint8_t len,
+;                        frame_status_t *st)
+; proto/frame.c's receiver: COBS code bytes, data bytes, the delimiter and the frame's
+; checks, the state in registers for the call. data lies in the RX ring (uart.c: its
+; low byte is the ring's index), and the call takes the bytes that come in while it
+; runs as well as the len given (up to the delimiter; at most the 255 the ring holds),
+; so a request arriving while it is decoded is decoded to its end in one call, with no
+; C between its blocks. Where the frame loops serve the UART (uart_frame_polled) it
+; runs with interrupts off and serves it itself: the request's bytes come in through
+; its service points, not the receive interrupt. Elsewhere SV_MASK is 0, so its
+; service points never fire, and the head is read from RAM.
+#define RAW_MAX 136     /* FRAME_RAW_MAX; the state (n, left, zero, status, crc,
+                           crc_start) follows raw, 4 + RAW_MAX into frame_rx_t (frame.c) */
+#define RX_STATE (4 + RAW_MAX)
+#define LEFT    r18     /* data bytes left in the COBS block (0 after an error) */
+#define FREE    r19     /* RAW_MAX - n */
+#define K       r24
+#define K0      r25
+#define TOOK0   r10     /* data's ring index: the call took up to r26 */
+#define END     r11     /* the ring's head, as last read */
+#define STATUS  r12     /* FRAME_MORE while the frame is good so far */
+; T: the block ends in an implied zero, emitted if the frame goes on (rx->zero).
+; r6:r7: st; r8:r9: &rx->n; X: the next byte (r27 the ring's high byte, r26 its index).
+
+; END = the ring's head: the service points' copy, or the interrupt's in RAM.
+.macro RX_HEAD
+        tst     SV_MASK
+        breq    .Lram\@
+        mov     END, SV_RXH
+        rjmp    .Lgot\@
+.Lram\@: lds    END, uart_rx_head
+.Lgot\@:
+.endm
+
+        .section .text.frame_rx_bytes, "ax", @progbits
+        .global frame_rx_bytes
+frame_rx_bytes:
+        push    r6
+        push    r7
+        push    r8
+        push    r9
+        push    r10
+        push    r11
+        push    r12
         push    r28
         push    r29
-        movw    r26, r20                ; X: the received bytes
-        movw    r28, r22                ; Y: where they go in the frame
-        movw    r30, r24                ; the CRC, kept at r24:r25
-        ld      CRC0, Z
-        ldd     CRC1, Z+1
-        ldd     CRC2, Z+2
-        ldd     CRC3, Z+3
-        mov     r19, r18                ; r19: bytes left of k
-        tst     r19
-        breq    2f
-        IF_POLLED rx_polled
-1:      ld      BYTE, X+
+        movw    r6, r18
+        movw    r26, r22
+        mov     TOOK0, r26
+        mov     END, r26
+        movw    r30, r24
+        subi    r30, lo8(-RX_STATE)
+        sbci    r31, hi8(-RX_STATE)
+        movw    r8, r30
+        ld      FREE, Z                 ; n
+        ldd     LEFT, Z+1
+        ldd     r0, Z+2
+        bst     r0, 0                   ; zero
+        ldd     STATUS, Z+3
+        ldd     CRC0, Z+4
+        ldd     CRC1, Z+5
+        ldd     CRC2, Z+6
+        ldd     CRC3, Z+7
+        movw    r28, r30                ; Y: raw + n
+        subi    r28, lo8(RAW_MAX)
+        sbci    r29, hi8(RAW_MAX)
+        add     r28, FREE
+        adc     r29, r1
+        neg     FREE
+        subi    FREE, -RAW_MAX
+        IF_POLLED b_polled
+        push    SV_MASK
+        clr     SV_MASK                 ; the interrupts serve the UART
+        rjmp    b_next
+b_polled:
+        POLLED_BEGIN
+        rjmp    b_next
+        SERVE_STUB b_serve, b_served    ; here: in reach of the branch to it
+; A byte: the delimiter, a code byte, or a block's data.
+b_next: UART_POLL b_serve, b_served
+        cp      r26, END
+        brne    1f
+        RX_HEAD
+        cp      r26, END
+        brne    1f
+        rjmp    b_more                  ; the ring is empty
+1:      ld      BYTE, X
+        inc     r26
         tst     BYTE
-        breq    2f                      ; a zero: the block ends before it
+        breq    b_delim
+        tst     LEFT
+        breq    b_code
+        tst     FREE
+        breq    b_over
+        dec     r26                     ; the block's data, from this byte on
+        rjmp    b_data
+
+; A code byte: the previous block's zero if the frame goes on, then this block.
+b_code: tst     STATUS
+        brne    b_next                  ; after an error, up to the delimiter
+        mov     LEFT, BYTE
+        dec     LEFT
+        brtc    2f
+        tst     FREE
+        breq    b_over
+        clr     BYTE
         CRC32C_BYTE
         st      Y+, BYTE
-        dec     r19
-        brne    1b
-2:      movw    r30, r24
-        st      Z, CRC0
-        std     Z+1, CRC1
-        std     Z+2, CRC2
-        std     Z+3, CRC3
-        sub     r18, r19
-        mov     r24, r18
+        dec     FREE
+2:      set
+        cpi     LEFT, 0xFE              ; code 0xFF: no zero after its block
+        brne    b_next
+        clt
+        rjmp    b_next
+
+b_over: ldi     K, 5                    ; FRAME_OVERSIZE: the rest dropped up to the delimiter
+        mov     STATUS, K
+        clr     LEFT
+        rjmp    b_next
+
+; The delimiter: the frame's verdict (as rx_end), then the next frame.
+b_delim:
+        tst     STATUS
+        brne    b_end
+        ldi     K, 2                    ; FRAME_IDLE: nothing before the delimiter
+        cpi     FREE, RAW_MAX
+        brne    3f
+        tst     LEFT
+        brne    3f
+        brtc    b_verdict
+3:      ldi     K, 3                    ; FRAME_BAD_COBS
+        tst     LEFT
+        brne    b_verdict
+        ldi     K, 4                    ; FRAME_BAD_CRC: too short, CRC, or length field
+        cpi     FREE, RAW_MAX - 8 + 1
+        brsh    b_verdict
+        cpi     CRC0, 0x38              ; CRC32C_RESIDUE
+        brne    b_verdict
+        cpi     CRC1, 0xB4
+        brne    b_verdict
+        cpi     CRC2, 0x98
+        brne    b_verdict
+        cpi     CRC3, 0xB7
+        brne    b_verdict
+        movw    r30, r8                 ; raw[3], the body's length
+        subi    r30, lo8(RAW_MAX - 3)
+        sbci    r31, hi8(RAW_MAX - 3)
+        ld      r0, Z
+        ldi     K0, RAW_MAX - 8
+        sub     K0, FREE
+        cp      r0, K0
+        brne    b_verdict
+        ldi     K, 1                    ; FRAME_OK
+b_verdict:
+        mov     STATUS, K
+b_end:  movw    r30, r6
+        st      Z, STATUS
+        std     Z+1, r1
+        movw    r30, r8                 ; the next frame: n, left, zero 0, FRAME_MORE,
+        st      Z, r1                   ; the CRC where each frame's starts
+        std     Z+1, r1
+        std     Z+2, r1
+        std     Z+3, r1
+        ldd     CRC0, Z+8
+        ldd     CRC1, Z+9
+        ldd     CRC2, Z+10
+        ldd     CRC3, Z+11
+        rjmp    b_store
+
+b_more: movw    r30, r6                 ; FRAME_MORE: the state kept for the next call
+        st      Z, r1
+        std     Z+1, r1
+        movw    r30, r8
+        ldi     K, RAW_MAX
+        sub     K, FREE
+        st      Z, K
+        std     Z+1, LEFT
+        clr     K
+        bld     K, 0
+        std     Z+2, K
+        std     Z+3, STATUS
+b_store:
+        std     Z+4, CRC0
+        std     Z+5, CRC1
+        std     Z+6, CRC2
+        std     Z+7, CRC3
+        tst     SV_MASK
+        brne    4f
+        pop     SV_MASK
+        rjmp    5f
+4:      POLLED_END
+5:      mov     r24, r26
+        sub     r24, TOOK0
         pop     r29
         pop     r28
+        pop     r12
+        pop     r11
+        pop     r10
+        pop     r9
+        pop     r8
+        pop     r7
+        pop     r6
         ret
 
-; The loop above with a service point every second byte (~64 cycles apart: a received
-; byte comes every 80 at 2 Mbaud and the receiver holds three, UDR0 takes one every 80).
-; The pair is written out: in a macro or a .rept, vehil profile would no longer find the
-; CRC's lines by CRC32C_BYTE (measured: its CRC part halved).
-rx_polled:
-        POLLED_BEGIN
-        rjmp    3f
-        SERVE_STUB rx_serve, rx_served  ; here: in reach of the branch to it
-3:      UART_POLL rx_serve, rx_served
-        ld      BYTE, X+
+; A block's data: K0 = as many as the block, the frame's room and the ring hold, each
+; copied with the CRC run over it (30 cycles, a service point every second byte: ~64
+; apart); a zero ends the block early, for b_next to take as the delimiter. Written
+; out: in a macro or a .rept, vehil profile would no longer find the CRC's lines by
+; CRC32C_BYTE.
+        SERVE_STUB d_serve, d_served
+b_data: mov     K0, END
+        sub     K0, r26
+        cp      LEFT, K0
+        brsh    6f
+        mov     K0, LEFT
+6:      cp      FREE, K0
+        brsh    7f
+        mov     K0, FREE
+7:      mov     K, K0
+d_next: UART_POLL d_serve, d_served
+        ld      BYTE, X
+        inc     r26
         tst     BYTE
-        breq    4f
+        breq    d_zero
         CRC32C_BYTE
         st      Y+, BYTE
-        dec     r19
-        breq    4f
-        ld      BYTE, X+
+        dec     K
+        breq    d_done
+        ld      BYTE, X
+        inc     r26
         tst     BYTE
-        breq    4f
+        breq    d_zero
         CRC32C_BYTE
         st      Y+, BYTE
-        dec     r19
-        brne    3b
-4:      POLLED_END
-        rjmp    2b
+        dec     K
+        brne    d_next
+d_done: sub     K0, K
+        sub     LEFT, K0
+        sub     FREE, K0
+        rjmp    b_next
+d_zero: dec     r26                     ; the zero: b_next's
+        rjmp    d_done
 
 ; A byte (BYTE) into the TX ring at W, COBS-encoded; to \zero if it is a zero.
 .macro TX_STORE zero

@@ -245,3 +245,73 @@ def test_pings_streamed_between_steps_at_2_mbaud_lose_no_byte_at_a_mode_switch(b
     assert [g["outputs"] for g in got[4::5]] == expected
     for counter in ("crc_errors", "cobs_errors", "overruns"):
         assert after[counter] == before[counter], counter
+
+
+def _hostile_stream(rng: random.Random) -> list[bytes]:
+    """PINGs, good and damaged, among garbage: each piece a write of its own."""
+    ping = SCHEMA.messages["PING"].type
+    room = SCHEMA.max_body - 4  # a PONG's timestamp, then the echo
+    pieces: list[bytes] = []
+    for i in range(60):
+        payload = bytes(
+            rng.choice((0, 1, 0xFF, rng.randrange(256))) for _ in range(rng.randint(0, room))
+        )
+        good = framing.encode(ping, 1 + i, payload)
+        kind = rng.randrange(7)
+        if kind == 0:  # a byte flipped
+            k = rng.randrange(len(good) - 1)
+            good = good[:k] + bytes([good[k] ^ (1 << rng.randrange(8))]) + good[k + 1 :]
+        elif kind == 1:  # cut short: the next delimiter ends it
+            good = good[: rng.randrange(1, len(good) - 1)] + b"\x00"
+        elif kind == 2:  # garbage before it, zeros and code bytes among it
+            good = bytes(rng.choice((0, 0xFF, rng.randrange(256))) for _ in range(40)) + good
+        elif kind == 3:  # a block's code byte pointing past the delimiter
+            good = b"\xff" + bytes(rng.randrange(1, 256) for _ in range(20)) + b"\x00" + good
+        pieces.append(good)
+    pieces.append(b"\x01" * 300 + b"\x00")  # oversize: zeros, one a code byte
+    pieces.append(b"\x00\x00" + framing.encode(ping, 99, bytes(range(1, room + 1))))  # the largest
+    return pieces
+
+
+def _replies(link, pieces: list[bytes], quiet_s: float) -> list[tuple[str, int, bytes]]:  # noqa: ANN001
+    """What the board answers to each piece, read until it falls quiet."""
+    ping = SCHEMA.messages["PING"].type
+    decoder = framing.StreamDecoder(answers=lambda seq: ping if seq else 0)
+    got: list[tuple[str, int, bytes]] = []
+    for piece in pieces:
+        link.port.write(piece)
+        quiet = time.perf_counter() + quiet_s
+        while time.perf_counter() < quiet:
+            data = link.port.read(max(1, link.port.in_waiting))
+            for f in decoder.feed(data):
+                got.append((f.name, f.seq, f.body[4:] if f.name == "PONG" else f.body))
+                quiet = time.perf_counter() + quiet_s
+    assert decoder.bad_frames == 0
+    return got
+
+
+@pytest.mark.parametrize("baud", [1_000_000, 2_000_000])
+def test_the_receiver_takes_a_hostile_stream_as_its_c_twin_does(built, baud) -> None:  # noqa: ANN001
+    """firmware/src/frame_avr.S's receiver against proto/frame.c's on the host: good,
+    damaged and oversize frames among garbage, each piece written alone (no overrun),
+    at 1 Mbaud (the receive interrupt fills the ring) and 2 Mbaud (the receiver's own
+    service points do): the same replies and the same error counts."""
+    pieces = _hostile_stream(random.Random(baud))
+    counts = {}
+    replies = {}
+    for name in ("native", "simavr"):
+        with open_board(name, BoardOptions(timeout_s=3.0)) as link:
+            if name == "simavr":
+                link.set_baud(baud)
+                link.port.timeout = 0.02
+            before = link.stats()
+            replies[name] = _replies(link, pieces, 0.25 if name == "simavr" else 0.02)
+            after = link.stats()
+        counts[name] = {
+            k: after[k] - before[k] for k in ("crc_errors", "cobs_errors", "oversize", "overruns")
+        }
+    assert replies["simavr"] == replies["native"]
+    assert counts["simavr"] == counts["native"]
+    assert counts["simavr"]["overruns"] == 0
+    assert all(counts["simavr"][k] > 0 for k in ("crc_errors", "cobs_errors", "oversize"))
+    assert sum(r[0] == "PONG" for r in replies["simavr"]) > 10

@@ -527,7 +527,7 @@ void dispatch_bytes(const uint8_t *data, uint8_t len)
         uint8_t took = frame_rx_bytes(&core.rx, data, len, &st);
         port_rx_release(took); /* before a long step: the RX ring gets its room back */
         data += took;
-        len = (uint8_t)(len - took);
+        len = took < len ? (uint8_t)(len - took) : 0u; /* more: bytes that came in meanwhile */
         if (st != FRAME_MORE) {
             end_of_frame(st);
         }

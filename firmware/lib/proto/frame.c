@@ -22,6 +22,20 @@ void frame_rx_reset(frame_rx_t *rx, uint8_t answers)
     rx_restart(rx);
 }
 
+#if defined(__AVR__)
+/* frame_rx_bytes() is firmware/src/frame_avr.S's, the C below in assembly, with its
+ * offsets and verdicts' values spelled out there. */
+typedef char frame_rx_avr_layout[(offsetof(frame_rx_t, n) == FRAME_HEADER_SIZE + 136u &&
+                                  FRAME_RAW_MAX == 136u && offsetof(frame_rx_t, left) == 141u &&
+                                  offsetof(frame_rx_t, zero) == 142u &&
+                                  offsetof(frame_rx_t, status) == 143u &&
+                                  offsetof(frame_rx_t, crc) == 144u &&
+                                  offsetof(frame_rx_t, crc_start) == 148u && FRAME_OK == 1 &&
+                                  FRAME_IDLE == 2 && FRAME_BAD_COBS == 3 && FRAME_BAD_CRC == 4 &&
+                                  FRAME_OVERSIZE == 5)
+                                     ? 1
+                                     : -1];
+#else
 static void rx_emit(frame_rx_t *rx, uint8_t byte)
 {
     if (rx->n == FRAME_RAW_MAX) {
@@ -69,10 +83,6 @@ static frame_status_t rx_other(frame_rx_t *rx, uint8_t byte)
     return FRAME_MORE;
 }
 
-#if defined(__AVR__)
-/* firmware/src/frame_avr.S: the loop below in assembly. */
-uint8_t frame_rx_run(uint32_t *crc, uint8_t *dst, const uint8_t *src, uint8_t k);
-#else
 /* Copies up to k bytes of a COBS block's data, up to a zero, running the CRC over
  * them; returns how many it took. */
 static uint8_t frame_rx_run(uint32_t *crc, uint8_t *dst, const uint8_t *src, uint8_t k)
@@ -87,7 +97,6 @@ static uint8_t frame_rx_run(uint32_t *crc, uint8_t *dst, const uint8_t *src, uin
     *crc = c;
     return took;
 }
-#endif
 
 uint8_t frame_rx_bytes(frame_rx_t *rx, const uint8_t *data, uint8_t len, frame_status_t *st)
 {
@@ -120,6 +129,8 @@ uint8_t frame_rx_bytes(frame_rx_t *rx, const uint8_t *data, uint8_t len, frame_s
     }
     return (uint8_t)(p - data);
 }
+
+#endif
 
 /* No COBS block reaches the 254 data bytes that would end it without a zero. */
 typedef char frame_blocks_end_at_zeros[FRAME_RAW_MAX < 254u ? 1 : -1];

@@ -46,7 +46,9 @@ void frame_rx_reset(frame_rx_t *rx, uint8_t answers);
 /* Feeds bytes up to and including the first delimiter among them; returns how many it
  * took. *st is the verdict of the frame that delimiter ended (the next frame then
  * starts, answering the same type), or FRAME_MORE if there was none. The frame stays
- * readable in raw until more bytes are fed. */
+ * readable in raw until more bytes are fed. On the AVR data lies in the UART's RX ring
+ * and the call goes on with the bytes that come in after these while it runs, so it
+ * may take more than len (firmware/src/frame_avr.S). */
 uint8_t frame_rx_bytes(frame_rx_t *rx, const uint8_t *data, uint8_t len, frame_status_t *st);
 
 static inline uint8_t frame_type(const frame_rx_t *rx) { return rx->raw[0]; }

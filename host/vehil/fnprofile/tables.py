@@ -198,7 +198,7 @@ def figures(profile: Profile, files: dict | None = None) -> dict:
 _CRC_MACRO = "CRC32C_BYTE"
 _CRC_HEADER = "firmware/lib/proto/crc32c.h"
 _SERVE_MACROS = ("UART_POLL", "SERVE_STUB", "IF_POLLED", "POLLED_BEGIN", "POLLED_END")
-_FRAME_LOOPS = ("frame_rx_run", "frame_tx_run", "frame_tx_crc", "frame_tx_frame")
+_FRAME_LOOPS = ("frame_rx_bytes", "frame_tx_run", "frame_tx_crc", "frame_tx_frame")
 EXCHANGE_PARTS = (
     "RX interrupts",
     "TX interrupts",
