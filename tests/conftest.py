@@ -14,9 +14,16 @@ import os
 from pathlib import Path
 
 import pytest
+from hypothesis import HealthCheck, settings
 
 from vehil.build import build
 from vehil.paths import BUILD_DIR
+
+# Property tests judge what the code returns, not how fast a loaded host ran it: no
+# per-example deadline (Hypothesis's 200 ms fails an example a starved worker ran slowly,
+# or calls it flaky when its rerun is quick) and no health check on how fast examples are made.
+settings.register_profile("vehil", deadline=None, suppress_health_check=[HealthCheck.too_slow])
+settings.load_profile("vehil")
 
 # pytest-xdist's workers start with COLUMNS=80 in their environment, which would fold
 # vehil's output at 80 columns where a CI log gets it at full width (vehil.terminal).

@@ -17,19 +17,23 @@ from vehil.protocol.schema import SCHEMA
 PING = SCHEMA.messages["PING"].type
 
 
+# the suite's profile's (tests/conftest.py), and the module's link shared by every example
+UNTIMED = [HealthCheck.too_slow, HealthCheck.function_scoped_fixture]
+
+
 @pytest.fixture(scope="module")
 def link(built):  # noqa: ANN001, ANN201
     with open_board("native", BoardOptions(timeout_s=0.2)) as link:
         yield link
 
 
-@settings(max_examples=300, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=300, suppress_health_check=UNTIMED)
 @given(payload=st.binary(max_size=SCHEMA.max_body - 4))
 def test_c_encoder_frames_decode_in_python(link, payload: bytes) -> None:
     assert link.request("PING", payload=payload).fields()["payload"] == payload
 
 
-@settings(max_examples=300, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=300, suppress_health_check=UNTIMED)
 @given(
     payload=st.binary(max_size=40),
     edits=st.lists(st.tuples(st.integers(0, 200), st.integers(0, 255)), max_size=3),
