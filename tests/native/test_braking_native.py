@@ -86,7 +86,7 @@ def test_the_uiiekf_says_where_standing_leaves_its_estimates_undetermined(run_sc
 def test_the_uiiekf_flags_a_dead_sensor_and_wheels_read_backwards(built) -> None:  # noqa: ANN001
     spec = uiiekf.SPEC
     dead = [[92.6, 92.6]] * 50 + [[92.6 - 0.1 * k, 0.0] for k in range(100)]  # rear reads 0
-    backwards = [[-50.0, -50.0]] * 10  # v̂(0) = R ω_f(0) = -13.5 m/s, then the model blows up
+    backwards = [[-50.0, -50.0]] * 10  # v̂(0) = R ω_f(0) = -13.5 m/s; wheels turning backwards
     for n_states in (3, 5):
         for frames, why in ((dead, "innovations"), (backwards, "speed")):
             with open_board("native") as link:
@@ -97,5 +97,5 @@ def test_the_uiiekf_flags_a_dead_sensor_and_wheels_read_backwards(built) -> None
             flagged = [bool(s & DIVERGED) for s in status]
             if why == "innovations":  # healthy while the wheels agree, flagged once one dies
                 assert not any(flagged[:50]) and all(flagged[55:]), (n_states, flagged)
-            else:  # a speed below zero at once; P_vv past v_max² once the model runs away
+            else:  # a speed below zero at once, then the wheels' below zero
                 assert flagged[0] and all(flagged[5:]), (n_states, flagged)

@@ -16,7 +16,7 @@ enum {
 static const ROM param_range_t ranges[N_PARAMS] = {
     {1e-4f, 0.1f, 0},     {3.0f, 5.0f, 0},   {1.0f, 10.0f, 0},  {0.0f, 1.0f, 0},
     {0.0f, 2.0f, 0},      {1.0f, 500.0f, 0}, {0.0f, 1.0f, 0},   {1e-6f, 1e3f, 0},
-    {0.0f, 10.0f, 0},     {0.0f, 10.0f, 0},  {0.0f, 100.0f, 0}, {1e-6f, 100.0f, 0},
+    {0.0f, 1e3f, 0},      {0.0f, 1e3f, 0},   {0.0f, 1e5f, 0},   {1e-6f, 100.0f, 0},
     {100.0f, 5000.0f, 0}, {0.1f, 1.0f, 0},   {0.05f, 50.0f, 0}, {0.0f, 1.0f, 0},
     {0.1f, 1.5f, 0},      {0.1f, 2.0f, 0},   {0.3f, 4.0f, 0},   {0.3f, 4.0f, 0},
     {1.0f, 200.0f, 0},    {1.0f, 1e6f, 0},   {0.0f, 10.0f, 0},  {0.1f, 100.0f, 0},
@@ -203,8 +203,8 @@ static uint8_t measurement_update(uiiekf_state_t *st, const float *z, float *nis
 }
 
 /* The health check (docs/estimators/uiiekf.md): a variance is negative, or the speed's is
- * above v_max²; and, on the updated estimate, the windowed NIS passes its limit or the
- * speed is 3σ outside [0, v_max]. */
+ * above v_max²; and, on the updated estimate, the windowed NIS passes its limit, the
+ * speed is 3σ outside [0, v_max] or a wheel's 3σ outside [0, v_max / R] (turning backwards). */
 static uint8_t covariance_ok(const uiiekf_state_t *st)
 {
     uint8_t ok = st->P[0][0] <= st->p.v_max2;
@@ -217,8 +217,11 @@ static uint8_t covariance_ok(const uiiekf_state_t *st)
 static uint8_t estimate_ok(const uiiekf_state_t *st)
 {
     const uiiekf_params_t *p = &st->p;
+    uint8_t a = (uint8_t)(p->n - 2u), b = (uint8_t)(p->n - 1u);
     return st->nis <= p->nis_max && covariance_ok(st) &&
-           !health_outside_3sigma(st->x[0], 0.0f, p->v_max, st->P[0][0]);
+           !health_outside_3sigma(st->x[0], 0.0f, p->v_max, st->P[0][0]) &&
+           !health_outside_3sigma(st->x[a], 0.0f, p->w_max, st->P[a][a]) &&
+           !health_outside_3sigma(st->x[b], 0.0f, p->w_max, st->P[b][b]);
 }
 
 static void reset(uiiekf_state_t *st)
@@ -306,9 +309,9 @@ static uint8_t uiiekf_configure(void *state, uint8_t mode, const uint8_t *params
     st->p = (uiiekf_params_t){
         .T = v[P_T],
         .p0 = v[P_P0],
-        .q_v = v[P_QV],
-        .q_lat = v[P_QLAT],
-        .q_w = v[P_QW],
+        .q_v = v[P_QV] * v[P_T], /* densities per second: Q a step is q T */
+        .q_lat = v[P_QLAT] * v[P_T],
+        .q_w = v[P_QW] * v[P_T],
         .r_meas = v[P_R],
         .r_w = v[P_RW],
         .two_inv_m = 2.0f / v[P_M],
@@ -331,6 +334,7 @@ static uint8_t uiiekf_configure(void *state, uint8_t mode, const uint8_t *params
         .nis_max = v[P_NISMAX],
         .v_max = v[P_VMAX],
         .v_max2 = v[P_VMAX] * v[P_VMAX],
+        .w_max = v[P_VMAX] / v[P_RW],
         .w_min = v[P_VMIN] / v[P_RW],
         .n = n,
         .iterations = (uint8_t)v[P_ITER],

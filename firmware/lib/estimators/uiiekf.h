@@ -6,8 +6,9 @@
  *
  * Inputs  ω_f, ω_r [rad/s].   Outputs v̂_x [m/s], d̂ (innovation along C B).
  * Params  T, n_states, iterations, form, c1, c2, c3 (the model's tires), p0, q_v, q_lat,
- *         q_w, r_meas; the car: m, r_w, i_w, k_b, psi, h_cg, l_f, l_r; the health check:
- *         v_max, nis_max, v_min, nis_window; the car's i_z, rho, c_d, a_f, h_a, g. */
+ *         q_w (densities per second), r_meas; the car: m, r_w, i_w, k_b, psi, h_cg, l_f,
+ *         l_r; the health check: v_max, nis_max, v_min, nis_window; the car's i_z, rho,
+ *         c_d, a_f, h_a, g. */
 #ifndef VEHIL_ESTIMATORS_UIIEKF_H
 #define VEHIL_ESTIMATORS_UIIEKF_H
 
@@ -20,12 +21,12 @@
 
 /* Set at CONFIG from the parameters: what a step multiplies by. */
 typedef struct {
-    float T, p0, q_v, q_lat, q_w, r_meas;
+    float T, p0, q_v, q_lat, q_w, r_meas; /* q_* per step: the densities times T */
     float r_w, two_inv_m, two_inv_i_z, r_w_inv_i_w, l_f, l_r;
     float load_f, load_r, transfer, drag; /* static loads, m h / 2L, ½ ρ c_d A_f h_a / 2L */
     float psi_c1, c2, psi_c3, psi_c1c2, g0; /* Burckhardt: ψ c1, c2, ψ c3, ψ c1 c2, μ'(0) */
     float cb[2], inv_cb2;                   /* C B and 1 / |C B|² */
-    float alpha, nis_max, v_max, v_max2, w_min; /* health: T / window, ..., v_min / r_w */
+    float alpha, nis_max, v_max, v_max2, w_min, w_max; /* health: ..., v_min / R, v_max / R */
     uint8_t n, iterations, form;
 } uiiekf_params_t;
 

@@ -14,7 +14,10 @@ Gillijns & De Moor):
 repeated N times as printed (eq. 36: the same z applied N times), or once
 (`form = 1`: the standard IEKF, which re-linearises h; h is linear here, so one
 pass is the whole iteration). Time update (eq. 37) with the analytic Jacobian
-J_φ = I + T ∂f/∂x. Tuning (Table 3): P(0) = 10 I, R = 0.01 I, Q small.
+J_φ = I + T ∂f/∂x. Tuning (Table 3): P(0) = 10 I, R = 0.01 I. Q is "small" in the paper;
+here its entries are densities per second (Q = T diag(q_v, q_lat.., q_w, q_w)), so the
+filter is the same at any T, and q_w's default covers the wheel torque the model does not
+explain (tire relaxation, another car's inertia and brake split): docs/estimators/uiiekf.md.
 
 `n_states = 3` is the straight-line reduction (v_y = r = 0): states
 [v_x, ω_f, ω_r], the same equations with δ = 0. With δ = 0 the 5-state model's lateral
@@ -24,8 +27,9 @@ v_y and r stay zero and the 5-state filter gives the 3-state one's speed.
 Health (status DIVERGED): the innovation left after the unknown input takes its
 direction is one χ²(1) value per step; its mean over `nis_window` (an exponential
 average) above `nis_max` says the model no longer explains the wheels. So do a speed
-more than 3σ outside [0, v_max], and a speed variance above v_max² or a negative
-variance, after the update or after the prediction. While both wheels turn slower than
+more than 3σ outside [0, v_max] (a wheel's: [0, v_max / R]; below 0 it turns backwards),
+and a speed variance above v_max² or a negative variance, after the update or after the
+prediction. While both wheels turn slower than
 `v_min` the slip model means nothing: the average holds, and ILL_CONDITIONED says that
 d̂ (then the wheels' noise times |(C B)⁺|) and v̂ are not determined by the wheels.
 
@@ -155,7 +159,8 @@ class Uiiekf:
         self.B = np.zeros((n, 1))
         self.B[n - 2, 0] = -self.car.k_b * self.T / self.car.i_w
         self.B[n - 1, 0] = -(1 - self.car.k_b) * self.T / self.car.i_w
-        self.Q = np.diag([p["q_v"]] + [p["q_lat"]] * (n - 3) + [p["q_w"]] * 2)
+        # Q's densities are per second (docs/estimators/uiiekf.md): the same filter at any T.
+        self.Q = np.diag([p["q_v"]] + [p["q_lat"]] * (n - 3) + [p["q_w"]] * 2) * self.T
         self.R = np.eye(2) * p["r_meas"]
         self.x: np.ndarray | None = None
         self.P = np.eye(n) * p["p0"]
@@ -183,10 +188,12 @@ class Uiiekf:
         return bool(P[0, 0] <= self.p["v_max"] ** 2 and np.all(np.diag(P) >= 0.0))
 
     def _estimate_ok(self, x: np.ndarray, P: np.ndarray) -> bool:
+        w_max = self.p["v_max"] / self.car.r_w
         return (
             self.nis.mean <= self.p["nis_max"]
             and self._covariance_ok(P)
             and not outside_3sigma(x[0], 0.0, self.p["v_max"], P[0, 0])
+            and not any(outside_3sigma(x[i], 0.0, w_max, P[i, i]) for i in (-2, -1))
         )
 
     def step(self, u: np.ndarray) -> np.ndarray:
@@ -258,9 +265,17 @@ SPEC = register(
             Param("c2", "1", q=0, default=DRY[1], lo=1.0, hi=500.0, doc="c2 (dry asphalt's)"),
             Param("c3", "1", q=0, default=DRY[2], lo=0.0, hi=1.0, doc="c3"),
             Param("p0", "1", q=0, default=10.0, lo=1e-6, hi=1e3, doc="P(0) = p0 I (Table 3)"),
-            Param("q_v", "(m/s)^2", q=0, default=1e-4, lo=0.0, hi=10.0),
-            Param("q_lat", "1", q=0, default=1e-6, lo=0.0, hi=10.0),
-            Param("q_w", "(rad/s)^2", q=0, default=1e-2, lo=0.0, hi=100.0),
+            Param("q_v", "(m/s)^2/s", q=0, default=0.01, lo=0.0, hi=1e3, doc="speed model's error"),
+            Param("q_lat", "1/s", q=0, default=1e-4, lo=0.0, hi=1e3, doc="v_y and r's"),
+            Param(
+                "q_w",
+                "(rad/s)^2/s",
+                q=0,
+                default=300.0,
+                lo=0.0,
+                hi=1e5,
+                doc="wheels' unmodelled torque (paper's tuning: 1)",
+            ),
             Param("r_meas", "(rad/s)^2", q=0, default=0.01, lo=1e-6, hi=100.0, doc="R (Table 3)"),
             *CAR,
             Param("v_max", "m/s", q=0, default=100.0, lo=1.0, hi=200.0, doc="highest speed"),
