@@ -9,7 +9,7 @@
 
 enum {
     P_T, P_RW, P_NV, P_NB, P_R, P_P0V, P_P0B, P_RBAR, P_C1, P_C2, P_VG, P_LPF,
-    P_NISMAX, P_NISWIN, P_VMAX, P_SMAX, N_PARAMS
+    P_Z2MAX, P_ZWIN, P_VMAX, P_SMAX, N_PARAMS
 };
 
 static const ROM param_range_t ranges[N_PARAMS] = {
@@ -88,12 +88,13 @@ static uint8_t step_f32(acc_kf_state_t *st, const uint8_t *in, uint8_t *out)
             s->p11 = m11 * g;
             s->p12 = m12 * g;
             s->p22 = m22 - k2 * cm12;
-            /* Health (docs/estimators/acc_kf.md): the windowed NIS, v̂ within 3σ of [-v_guard,
-             * v_max] (near standstill the filter is not held to its speed). */
-            s->nis += p->alpha * (e * e * inv_s - s->nis);
+            /* Health (docs/estimators/acc_kf.md): the innovation's windowed mean against its
+             * white-noise spread, v̂ within 3σ of [-v_guard, v_max] (near standstill the
+             * filter is not held to its speed). */
+            s->e_mean += p->alpha * (e - s->e_mean);
             float out_v = s->v < -p->v_guard ? s->v + p->v_guard
                                                  : (s->v > p->v_max ? s->v - p->v_max : 0.0f);
-            if (s->nis > p->nis_max || (out_v != 0.0f && out_v * out_v > 9.0f * s->p11)) {
+            if (s->e_mean * s->e_mean * inv_s > p->z_lim || (out_v != 0.0f && out_v * out_v > 9.0f * s->p11)) {
                 status |= STATUS_DIVERGED;
             }
             if (st->corr1) { /* a_f serves correction 1 alone */
@@ -352,26 +353,33 @@ static __attribute__((noinline)) void covariance_q(const acc_kf_params_q_t *p, a
     s->p_status = status;
 }
 
-/* The float32 step's health check on R e²/S = e² (1 - c k1) (so no division), against
- * R nis_max, in Q(2 q_e) with e to 16 bits in Q q_e (q_e from R nis_max at CONFIG: e's
- * range 32 times the limit's root, its unit 1/1024 of it). Its own saturation (e past
- * that range) says "far off", not a saturated estimate. */
+/* The health check: ē, the innovation's average over z_window (e clipped to ±8 m/s, in Q28),
+ * and R ē²/S = ē² (1 - c k1) (so no division) against R z2_max α / (2 - α), in Q(2 q_e)
+ * with ē to 16 bits in Q q_e (q_e from that limit at CONFIG: ē's range 32 times the
+ * limit's root, its unit 1/1024 of it). Its own saturation (ē past that range) says "far
+ * off", not a saturated estimate. */
+#define E_CLIP ((INT32_C(8) << 20) - 1) /* 8 m/s in Q20, so e 2^8 fits Q28 */
 static uint8_t health_q(const acc_kf_params_q_t *p, acc_kf_q_t *s, int32_t e)
 {
     uint8_t hs = 0;
-    int32_t e_r = p->e_shift ? (fx_sar32(e, (uint8_t)(p->e_shift - 1u)) + 1) >> 1 : e;
-    uint16_t e16 = (uint16_t)(e_r < 0 ? -e_r : e_r); /* |e|, 16 bits */
+    int32_t e28 = (int32_t)((uint32_t)(e > E_CLIP ? E_CLIP : (e < -E_CLIP ? -E_CLIP : e)) << 8);
+    /* the average's step alpha (e - ē), on its magnitude (a 32 x 24 product inline): both
+     * within ±8 m/s, so their difference's magnitude fits 32 bits unsigned */
+    uint8_t up = e28 >= s->e_mean;
+    uint32_t step = fx_umul_q24(up ? (uint32_t)e28 - (uint32_t)s->e_mean
+                                   : (uint32_t)s->e_mean - (uint32_t)e28,
+                                p->alpha);
+    s->e_mean = up ? (int32_t)((uint32_t)s->e_mean + step) : (int32_t)((uint32_t)s->e_mean - step);
+    int32_t e_r = p->e_shift ? (fx_sar32(s->e_mean, (uint8_t)(p->e_shift - 1u)) + 1) >> 1
+                             : s->e_mean;
+    uint16_t e16 = (uint16_t)(e_r < 0 ? -e_r : e_r); /* |ē|, 16 bits */
     if (e_r > INT16_MAX || e_r < -INT16_MAX) {
         e16 = INT16_MAX;
     }
     uint32_t e2g = fx_umul16_q15(fx_umul16x16(e16, e16), s->g16); /* < 2^30 */
-    /* the average's step alpha (e2g - avg), on its magnitude (a 32 x 24 product inline) */
-    uint8_t up = e2g >= s->nis_r;
-    uint32_t step = fx_umul_q24(up ? e2g - s->nis_r : s->nis_r - e2g, p->alpha);
-    s->nis_r = up ? s->nis_r + step : s->nis_r - step;
     int32_t out_v = s->v < -p->v_guard ? fx_add(s->v, p->v_guard, &hs)
                                        : (s->v > p->v_max ? fx_sub(s->v, p->v_max, &hs) : 0);
-    uint8_t bad = s->nis_r > p->nis_lim;
+    uint8_t bad = e2g > p->z_lim;
     if (out_v != 0) { /* 9 P11 (Q20), needed only off the plausible range */
         int32_t var9 = fx_mul(s->p11, 28, INT32_C(9) << 24, 24, 20, &hs);
         bad |= fx_mul(out_v, 20, out_v, 20, 20, &hs) > var9;
@@ -502,8 +510,8 @@ static uint8_t acc_kf_configure(void *state, uint8_t mode, const uint8_t *params
         p->rbar = get_f32(params + 4u * P_RBAR);
         p->v_guard = get_f32(params + 4u * P_VG);
         p->s_max = get_f32(params + 4u * P_SMAX);
-        p->alpha = p->T / get_f32(params + 4u * P_NISWIN);
-        p->nis_max = get_f32(params + 4u * P_NISMAX);
+        p->alpha = p->T / get_f32(params + 4u * P_ZWIN);
+        p->z_lim = get_f32(params + 4u * P_Z2MAX) * p->alpha / (2.0f - p->alpha);
         p->v_max = get_f32(params + 4u * P_VMAX);
         p->lpf_on = d.lpf_on;
         p->b0 = d.b0;
@@ -527,16 +535,17 @@ static uint8_t acc_kf_configure(void *state, uint8_t mode, const uint8_t *params
         p->v_guard = fx_rescale(param_q(params, P_VG), 16, 20, &sat);
         p->s_max = param_q(params, P_SMAX);
         float T = param_value(params, P_T, mode, 30);
-        /* the health check's e in Q q_e: 2^15 units reach 32 times the limit's root */
-        float lim = param_value(params, P_R, mode, 24) * param_value(params, P_NISMAX, mode, 16);
-        uint8_t q_e = 0; /* the largest q_e <= 20 with 1024 lim 2^(2 q_e) <= 2^30 */
-        for (float x = 4096.0f * lim; q_e < 20u && x <= 1073741824.0f; x *= 4.0f) {
+        float alpha = T / param_value(params, P_ZWIN, mode, 24); /* in [1e-6, 1] */
+        p->alpha = (uint32_t)fx_from_float(alpha < 1.0f ? alpha : 0.99999994f, 24, &sat);
+        /* the health check's ē in Q q_e: 2^15 units reach 32 times the limit's root */
+        float lim = param_value(params, P_R, mode, 24) * param_value(params, P_Z2MAX, mode, 16) *
+                    alpha / (2.0f - alpha);
+        uint8_t q_e = 0; /* the largest q_e <= 28 with 1024 lim 2^(2 q_e) <= 2^30 */
+        for (float x = 4096.0f * lim; q_e < 28u && x <= 1073741824.0f; x *= 4.0f) {
             q_e++;
         }
-        p->e_shift = (uint8_t)(20u - q_e);
-        p->nis_lim = fx_from_float(lim, (uint8_t)(2u * q_e), &sat);
-        float alpha = T / param_value(params, P_NISWIN, mode, 24); /* in [1e-6, 1] */
-        p->alpha = (uint32_t)fx_from_float(alpha < 1.0f ? alpha : 0.99999994f, 24, &sat);
+        p->e_shift = (uint8_t)(28u - q_e);
+        p->z_lim = (uint32_t)fx_from_float(lim, (uint8_t)(2u * q_e), &sat);
         p->v_max = fx_rescale(param_q(params, P_VMAX), 16, 20, &sat);
         p->lpf_on = d.lpf_on;
         p->b4 = fx_factor(4.0f * d.b0, 0, &sat);

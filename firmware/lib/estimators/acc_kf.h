@@ -8,10 +8,11 @@
  * Outputs v̂_r [m/s] Q16, â_0 [m/s²] Q24.
  * Params  T [s] Q30, r_w [m] Q24, n_v [(m/s)²/s] Q27, n_b [(m/s²)²/s] Q30, R [(m/s)²]
  *         Q24, p0_v Q24, p0_b Q30, r̄ Q30, corr1 Q0, corr2 Q0, v_guard [m/s] Q16,
- *         lpf_hz [Hz] Q24 (0: a_f = a_m), nis_max Q16, nis_window [s] Q24, v_max [m/s]
+ *         lpf_hz [Hz] Q24 (0: a_f = a_m), z2_max Q16, z_window [s] Q24, v_max [m/s]
  *         Q16, s_max Q30.
- * Health: DIVERGED when the innovations' e²/S averaged over nis_window passes nis_max, or
- * v̂ is more than 3σ (σ² = P11) outside [0, v_max].
+ * Health: DIVERGED when the innovation's mean over z_window, squared over the variance it
+ * has when the innovations are white (S α / (2 - α), α = T / z_window), passes z2_max, or
+ * v̂ is more than 3σ (σ² = P11) outside [-v_guard, v_max] (docs/estimators/acc_kf.md).
  * CONFIG derives the step's numbers from them and T: Q11 = n_v T, Q22 = n_b T and the
  * LPF's eq. 4b coefficients (a Butterworth at lpf_hz, lpf_hz T <= 0.4), so the step
  * itself sees per-step values only. */
@@ -27,7 +28,7 @@
 
 typedef struct {
     float T, r_w_half, q_v, q_b, R, p0_v, p0_b, rbar, v_guard, s_max;
-    float alpha, nis_max, v_max; /* health: T / nis_window, ... */
+    float alpha, z_lim, v_max; /* health: T / z_window, z2_max α / (2 - α), ... */
     float b0, c[2];       /* eq. 4b: b = b0 (1, 2, 1) */
     uint8_t lpf_on;       /* lpf_hz > 0 (else a_f = a_m) */
 } acc_kf_params_f32_t;
@@ -37,7 +38,7 @@ typedef struct {
     float p11, p12, p22;  /* P, symmetric */
     float u_prev, w2_prev, slip;
     float am[2], af[2];   /* a_m(k-1), a_m(k-2); a_f(k-1), a_f(k-2) */
-    float nis;            /* e²/S averaged */
+    float e_mean;         /* the innovation e averaged over z_window */
 } acc_kf_f32_t;
 
 /* Fixed point: the Q format of each member is in its comment. */
@@ -58,9 +59,9 @@ typedef struct {
     fx_factor_t b4;       /* 4 b0 (b = b0 (1, 2, 1)) to 16 bits */
     fx_ufactor_t a2;      /* -c2 in (0, 1) to 16 bits */
     uint8_t lpf_on;       /* lpf_hz > 0 (else a_f = a_m) */
-    uint32_t alpha;       /* Q24: T / nis_window (>= 1e-6: within 3 % at that corner) */
-    uint8_t e_shift;      /* 20 - q_e: e from Q20 to the health check's Q q_e */
-    uint32_t nis_lim;     /* Q(2 q_e): R nis_max (m/s)² */
+    uint32_t alpha;       /* Q24: T / z_window (>= 1e-6: within 3 % at that corner) */
+    uint8_t e_shift;      /* 28 - q_e: ē from Q28 to the health check's Q q_e */
+    uint32_t z_lim;       /* Q(2 q_e): R z2_max α / (2 - α) (m/s)² */
     int32_t v_max;        /* Q20 */
 } acc_kf_params_q_t;
 
@@ -76,7 +77,7 @@ typedef struct {
     int32_t af, daf;      /* Q24: a_f(k-1), and its increment a_f(k-1) - a_f(k-2) */
     fx_factor_t kv, ka;   /* the last gains k1 (Q20 -> Q20) and k2 2^4 (Q20 -> Q24) */
     uint16_t g16;         /* Q15: 1 - c k1 = R / S */
-    uint32_t nis_r;       /* Q(2 q_e): R e²/S averaged, (m/s)² */
+    int32_t e_mean;       /* Q28: the innovation averaged over z_window, e within ±8 m/s */
     uint8_t p_steady;     /* the last update, with c = 1, left P unchanged */
     uint8_t p_status;     /* the flags the last covariance update raised */
 } acc_kf_q_t;

@@ -1,7 +1,7 @@
-"""The Kalman filters' health check, one mechanism for all of them (ACC KF, UIIEKF, KF-UI):
-the normalised innovation squared (NIS) averaged over a window, and a state more than 3σ
-outside its plausible range. Either sets DIVERGED. The C twin is
-firmware/lib/estimators/health.h."""
+"""The Kalman filters' health checks: the normalised innovation squared (NIS) averaged over
+a window (UIIEKF, KF-UI), the innovation's mean over a window against its white-noise
+spread (ACC KF), and a state more than 3σ outside its plausible range. Each sets DIVERGED.
+The C twin is firmware/lib/estimators/health.h (the ACC KF's is in acc_kf.c)."""
 
 from __future__ import annotations
 
@@ -18,6 +18,22 @@ class NisWindow:
     def update(self, nis: float) -> float:
         self.mean += self.alpha * (nis - self.mean)
         return self.mean
+
+
+class MeanInnovation:
+    """The innovation's exponential average ē (weight α = T / window) squared over the
+    variance it has when the innovations are white with variance S, S α / (2 - α): a χ²(1)
+    value when the filter is healthy, whatever T. A bias μ in the innovations (a model the
+    data do not follow) reads μ² (2 - α) / (S α): per sample μ scales as √T at a given
+    model error, so this stays the same at any T, where the NIS's μ²/S grows with T."""
+
+    def __init__(self, T: float, window: float):
+        self.alpha = T / window
+        self.mean = 0.0
+
+    def update(self, e: float, S: float) -> float:
+        self.mean += self.alpha * (e - self.mean)
+        return self.mean * self.mean * (2.0 - self.alpha) / (self.alpha * S)
 
 
 def nis_outside(e: np.ndarray, S_inv: np.ndarray, b: np.ndarray) -> float:

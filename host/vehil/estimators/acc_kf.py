@@ -31,7 +31,7 @@ import numpy as np
 
 from vehil.estimators import register
 from vehil.estimators._accel_conditioning import butter2
-from vehil.estimators._health import NisWindow, outside_3sigma
+from vehil.estimators._health import MeanInnovation, outside_3sigma
 from vehil.estimators.base import EstimatorSpec, Param, Signal
 
 # The low-pass's cutoff may reach 0.4 of the sample rate (0.8 of Nyquist): beyond it the
@@ -76,15 +76,16 @@ PARAMS = (
         doc="low-pass cutoff of a_f, at most 0.4/T; 0: a_f = a_m",
     ),
     Param(
-        "nis_max",
+        "z2_max",
         "1",
         q=16,
-        default=3.0,
+        default=50.0,
         lo=0.1,
         hi=1000.0,
-        doc="windowed NIS above which DIVERGED (healthy drives stay below 1: R is conservative)",
+        doc="the innovation's windowed mean, squared over its white-noise variance (χ²(1) "
+        "when healthy), above which DIVERGED",
     ),
-    Param("nis_window", "s", q=24, default=1.0, lo=0.1, hi=100.0, doc="NIS averaging time"),
+    Param("z_window", "s", q=24, default=1.0, lo=0.1, hi=100.0, doc="that mean's time"),
     Param("v_max", "m/s", q=16, default=100.0, lo=1.0, hi=200.0, doc="highest plausible speed"),
     Param(
         "s_max",
@@ -146,7 +147,7 @@ class AccKF:
         self.u_prev = 0.0
         self.w2_prev = 0.0  # ŵ_s(k-1), bias channel
         self.slip = 0.0
-        self.nis = NisWindow(self.p["T"], self.p["nis_window"])  # the innovations' e²/S
+        self.health = MeanInnovation(self.p["T"], self.p["z_window"])
         self.diverged: list[bool] = []
         self.am_hist = [0.0, 0.0]  # a_m(k-1), a_m(k-2)
         self.af_hist = [0.0, 0.0]  # a_f(k-1), a_f(k-2)
@@ -198,11 +199,12 @@ class AccKF:
         self.P = np.array(
             [[m11 - k1 * c * m11, m12 - k1 * c * m12], [m12 - k1 * c * m12, m22 - k2 * c * m12]]
         )
-        # Health (docs/estimators/acc_kf.md): the windowed NIS, and v̂ within 3σ of
-        # [-v_guard, v_max] (near standstill the filter is not held to its speed).
-        nis = self.nis.update(e * e / S)
+        # Health (docs/estimators/acc_kf.md): the innovation's windowed mean against its
+        # white-noise spread, and v̂ within 3σ of [-v_guard, v_max] (near standstill the
+        # filter is not held to its speed).
+        z2 = self.health.update(e, S)
         off = outside_3sigma(self.v, -p["v_guard"], p["v_max"], self.P[0, 0])
-        self.diverged.append(nis > p["nis_max"] or off)
+        self.diverged.append(z2 > p["z2_max"] or off)
         a_f = self._lpf(a_m)
         self.w2_prev = p["rbar"] * (a_f - self.af_hist[1])
         if braking and self.v > p["v_guard"]:
