@@ -109,6 +109,9 @@ def throughput_point(link: Link, window: int, count: int, size: int = 16) -> dic
         "line_fraction": frames_s * per_direction * 10 / baud,
         "board_frames_s": board_frames_s,
         "board_line_fraction": board_frames_s * per_direction * 10 / baud,
+        # Its spread: the span above takes in every pause of the host's (a loaded host's
+        # stall leaves the board idle with the window empty); the median interval does not.
+        "board_interval_ms": _pct(s.board_interval_s * 1e3) if len(s.board_interval_s) else None,
         **_stats_delta(before, link.stats()),
     }
 
