@@ -86,15 +86,18 @@ def _add_board_options(p: argparse.ArgumentParser, default: str = DEFAULT_BOARD)
     _add_json_option(p)
 
 
-def _add_boot_baud_option(p: argparse.ArgumentParser) -> None:
-    p.add_argument(
-        "--boot-baud",
-        type=_above_zero(int),
-        default=None,
-        metavar="BAUD",
-        help="the rate the board's firmware boots at, where the link opens (default: the "
-        "image's, 1000000 unless built with `vehil build --boot-baud`)",
-    )
+_BOOT_BAUD_BUILT = (
+    "the firmware's UART boots at this rate, not 1000000: for a USB-serial adapter that "
+    "cannot run 1 Mbaud (the host opens the link at the image's rate)"
+)
+
+
+def _add_boot_baud_option(
+    p: argparse.ArgumentParser,
+    what: str = "the rate the board's firmware boots at, where the link opens (default: the "
+    "image's, 1000000 unless built with `vehil build --boot-baud`)",
+) -> None:
+    p.add_argument("--boot-baud", type=_above_zero(int), default=None, metavar="BAUD", help=what)
 
 
 def _add_run_options(p: argparse.ArgumentParser) -> None:
@@ -950,14 +953,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     p = sub.add_parser("build", help="build the firmware, the simavr bridge and the native library")
     p.add_argument("--only", action="append", choices=("firmware", "firmware-ev", "sim", "native"))
-    p.add_argument(
-        "--boot-baud",
-        type=_above_zero(int),
-        default=None,
-        metavar="BAUD",
-        help="the firmware's UART boots at this rate, not 1000000: for a USB-serial adapter "
-        "that cannot run 1 Mbaud (the host opens the link at the image's rate)",
-    )
+    _add_boot_baud_option(p, _BOOT_BAUD_BUILT)
     p.add_argument("--verbose", action="store_true")
     p.set_defaults(func=cmd_build)
 
@@ -999,7 +995,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument(
         "--baud", type=int, default=115200, help="the bootloader's baud rate (the Mega's: 115200)"
     )
-    _add_boot_baud_option(p)
+    _add_boot_baud_option(p, f"{_BOOT_BAUD_BUILT}; with --image, the rate that image boots at")
     p.add_argument(
         "--timeout", type=_above_zero(float), default=2.0, help="seconds to wait for each reply"
     )
