@@ -39,7 +39,9 @@ def _dies_with_parent(argv: list[str]) -> list[str]:
 class BoardProcess:
     """Starts a command in its own process group; stderr goes to a file we can quote."""
 
-    def __init__(self, argv: list[str], name: str, cwd: Path | None = None):
+    def __init__(
+        self, argv: list[str], name: str, cwd: Path | None = None, pass_fds: tuple[int, ...] = ()
+    ):
         self.argv = argv
         self.name = name
         self._stderr = tempfile.TemporaryFile()  # noqa: SIM115  (lives as long as the process)
@@ -53,6 +55,7 @@ class BoardProcess:
                 stdout=subprocess.PIPE,
                 stderr=self._stderr,
                 start_new_session=True,  # Ctrl-C reaches us, and we stop it in order
+                pass_fds=pass_fds,
             )
         except OSError as exc:
             raise BoardStartError(f"cannot start {name}: {argv[0]}: {exc.strerror}") from None

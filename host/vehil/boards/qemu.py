@@ -10,12 +10,6 @@ from vehil.errors import BoardStartError, BuildMissing
 from vehil.paths import FIRMWARE_ELF, FIRMWARE_EV_ELF
 
 
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
-
-
 class QemuBoard(ProcessBoard):
     name = "qemu"
     elf = FIRMWARE_ELF
@@ -34,24 +28,32 @@ class QemuBoard(ProcessBoard):
             )
         if not self.elf.exists():
             raise BuildMissing(f"firmware image {self.elf} is missing: run `vehil build`")
-        port = _free_port()
+        # QEMU serves UART0 on a socket bound here and handed to it listening: a port found
+        # free here and bound again by QEMU could be taken in between, by another board
+        # starting (two QEMUs on one port: one fails, its host talks to the other's board).
         # nodelay=on: without it Nagle and delayed ACKs cost ~44 ms per exchange.
         # wait=on: the CPU starts only once we are connected, so the ready frame is not lost.
-        self.process = BoardProcess(
-            [
-                exe,
-                "-M",
-                "mega2560",
-                "-bios",
-                str(self.elf),
-                "-nographic",
-                "-monitor",
-                "none",
-                "-serial",
-                f"tcp:127.0.0.1:{port},server=on,wait=on,nodelay=on",
-            ],
-            self.name,
-        )
+        with socket.create_server(("127.0.0.1", 0)) as listening:
+            port = listening.getsockname()[1]
+            fd = listening.fileno()
+            self.process = BoardProcess(
+                [
+                    exe,
+                    "-M",
+                    "mega2560",
+                    "-bios",
+                    str(self.elf),
+                    "-nographic",
+                    "-monitor",
+                    "none",
+                    "-chardev",
+                    f"socket,id=uart0,fd={fd},server=on,wait=on,nodelay=on",
+                    "-serial",
+                    "chardev:uart0",
+                ],
+                self.name,
+                pass_fds=(fd,),
+            )
         return f"tcp://127.0.0.1:{port}"  # keeps the boot INFO: see transports/protocol_tcp.py
 
 
