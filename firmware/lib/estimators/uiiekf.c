@@ -268,9 +268,11 @@ static uint8_t uiiekf_step(void *state, const uint8_t *in, uint8_t in_len, uint8
                 st->nis = health_nis_mean(st->nis, p->alpha, nis);
             }
         } else {
-            /* Standstill: the slip model means nothing, d̂ is the wheels' noise times
-             * |(C B)⁺| and v̂ is the model's alone (docs/estimators/uiiekf.md). */
+            /* Standstill: the slip model means nothing, the torque holding the car is a
+             * static reaction (d̂ 0: none estimated) and v̂ is the model's alone
+             * (docs/estimators/uiiekf.md). */
             status |= STATUS_ILL_CONDITIONED;
+            d_hat = 0.0f;
         }
         uint8_t healthy = estimate_ok(st);
         v_out = st->x[0];

@@ -217,8 +217,10 @@ class Uiiekf:
             IL = identity - L @ C
             P = IL @ P @ IL.T + L @ R @ L.T
         healthy = self._estimate_ok(x, P)
-        self.standstill.append(self.car.r_w * max(z) < self.p["v_min"])
-        d_hat = float((np.linalg.pinv(CB) @ innovation)[0])
+        standing = self.car.r_w * max(z) < self.p["v_min"]
+        self.standstill.append(standing)
+        # standing, the torque holding the car is a static reaction: none is estimated
+        d_hat = 0.0 if standing else float((np.linalg.pinv(CB) @ innovation)[0])
         x_next, J = self.predict(x)
         self.c1_norm.append(float(np.linalg.norm(IL @ B)))
         self.eigenvalues.append(np.linalg.eigvals(IL @ J))
