@@ -3,6 +3,7 @@
 #include <math.h>
 
 #include "estimators/accel_cond.h"
+#include "estimators/health.h"
 #include "estimators/params.h"
 #include "fixmath/fixmath.h"
 #include "proto/wire.h"
@@ -91,10 +92,9 @@ static uint8_t step_f32(acc_kf_state_t *st, const uint8_t *in, uint8_t *out)
             /* Health (docs/estimators/acc_kf.md): the innovation's windowed mean against its
              * white-noise spread, v̂ within 3σ of [-v_guard, v_max] (near standstill the
              * filter is not held to its speed). */
-            s->e_mean += p->alpha * (e - s->e_mean);
-            float out_v = s->v < -p->v_guard ? s->v + p->v_guard
-                                                 : (s->v > p->v_max ? s->v - p->v_max : 0.0f);
-            if (s->e_mean * s->e_mean * inv_s > p->z_lim || (out_v != 0.0f && out_v * out_v > 9.0f * s->p11)) {
+            s->e_mean = health_window_mean(s->e_mean, p->alpha, e);
+            if (s->e_mean * s->e_mean * inv_s > p->z_lim ||
+                health_outside_3sigma(s->v, -p->v_guard, p->v_max, s->p11)) {
                 status |= STATUS_DIVERGED;
             }
             if (st->corr1) { /* a_f serves correction 1 alone */

@@ -1,16 +1,16 @@
-/* The Kalman filters' health check, one mechanism for all of them (UIIEKF, KF-UI; the
- * Python twin is host/vehil/estimators/_health.py): the normalised innovation squared
- * (NIS) averaged over a window, and a state more than 3σ outside its plausible range.
+/* The Kalman filters' health checks (the Python twin is host/vehil/estimators/_health.py):
+ * an average over a window, of the normalised innovation squared (NIS: UIIEKF, KF-UI) or of
+ * the innovation itself (ACC KF), and a state more than 3σ outside its plausible range.
  * Either sets STATUS_DIVERGED (docs/estimators/kfui.md, "Health"). */
 #ifndef VEHIL_ESTIMATORS_HEALTH_H
 #define VEHIL_ESTIMATORS_HEALTH_H
 
 #include <stdint.h>
 
-/* The NIS's exponential average with weight alpha = T / window (at most 1). */
-static inline float health_nis_mean(float mean, float alpha, float nis)
+/* An exponential average with weight alpha = T / window (at most 1). */
+static inline float health_window_mean(float mean, float alpha, float x)
 {
-    return mean + alpha * (nis - mean);
+    return mean + alpha * (x - mean);
 }
 
 /* x more than 3σ (σ² = var) below lo or above hi. */

@@ -149,7 +149,7 @@ static uint8_t update(kfui_state_t *s, const float *y, float u, const float *xb,
     }
     s->d = z[3] * c->inv_d1;
     s->var_d = pivot * c->inv_d1 * c->inv_d1;
-    s->nis = health_nis_mean(s->nis, s->alpha,
+    s->nis = health_window_mean(s->nis, s->alpha,
                              z[0] * z[0] * inv_D[0] + z[1] * z[1] * inv_D[1] + z[2] * z[2] * inv_D[2]);
     float Y[4][3], V[4][3];
     for (uint8_t i = 0; i < 4u; i++) {

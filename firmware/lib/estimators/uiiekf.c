@@ -265,7 +265,7 @@ static uint8_t uiiekf_step(void *state, const uint8_t *in, uint8_t in_len, uint8
         }
         if (z[0] >= p->w_min || z[1] >= p->w_min) {
             if (status == 0) {
-                st->nis = health_nis_mean(st->nis, p->alpha, nis);
+                st->nis = health_window_mean(st->nis, p->alpha, nis);
             }
         } else {
             /* Standstill: the slip model means nothing, the torque holding the car is a

@@ -8,15 +8,16 @@ from __future__ import annotations
 import numpy as np
 
 
-class NisWindow:
-    """An exponential average of the NIS with weight T / window (window >= T)."""
+class WindowMean:
+    """An exponential average with weight T / window (window >= T): of the NIS, or of the
+    innovation (MeanInnovation)."""
 
     def __init__(self, T: float, window: float):
         self.alpha = T / window
         self.mean = 0.0
 
-    def update(self, nis: float) -> float:
-        self.mean += self.alpha * (nis - self.mean)
+    def update(self, x: float) -> float:
+        self.mean += self.alpha * (x - self.mean)
         return self.mean
 
 
@@ -28,12 +29,11 @@ class MeanInnovation:
     model error, so this stays the same at any T, where the NIS's μ²/S grows with T."""
 
     def __init__(self, T: float, window: float):
-        self.alpha = T / window
-        self.mean = 0.0
+        self.mean = WindowMean(T, window)
 
     def update(self, e: float, S: float) -> float:
-        self.mean += self.alpha * (e - self.mean)
-        return self.mean * self.mean * (2.0 - self.alpha) / (self.alpha * S)
+        mean, alpha = self.mean.update(e), self.mean.alpha
+        return mean * mean * (2.0 - alpha) / (alpha * S)
 
 
 def nis_outside(e: np.ndarray, S_inv: np.ndarray, b: np.ndarray) -> float:

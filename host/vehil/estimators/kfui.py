@@ -24,7 +24,7 @@ from scipy.linalg import expm
 
 from vehil.estimators import register
 from vehil.estimators._accel_conditioning import params as conditioning_params
-from vehil.estimators._health import NisWindow, nis_outside, outside_3sigma
+from vehil.estimators._health import WindowMean, nis_outside, outside_3sigma
 from vehil.estimators._suspension_control import PARAMS as CONTROL_PARAMS
 from vehil.estimators.base import EstimatorSpec, Param
 from vehil.estimators.eso import INPUTS, OUTPUTS, T_PARAM, Ecu, Measured, in_band
@@ -45,7 +45,7 @@ class KfUi:
         self.d = 0.0  # û*, the road input
         self.S = p["s0"]
         self.x_max = p["x_max"]
-        self.nis = NisWindow(self.T, p["nis_window"])  # of the innovation's χ²(3)
+        self.nis = WindowMean(self.T, p["nis_window"])  # of the innovation's χ²(3)
         self.nis_max = p["nis_max"]
         self.diverged: list[bool] = []
 

@@ -51,7 +51,7 @@ import numpy as np
 
 from vehil.braking_car import CAR_PARAMS, SURFACES, Car
 from vehil.estimators import register
-from vehil.estimators._health import NisWindow, nis_outside, outside_3sigma
+from vehil.estimators._health import WindowMean, nis_outside, outside_3sigma
 from vehil.estimators.base import EstimatorSpec, Param, Signal
 from vehil.estimators.manf import WHEEL_SPEEDS
 
@@ -165,7 +165,7 @@ class Uiiekf:
         self.x: np.ndarray | None = None
         self.P = np.eye(n) * p["p0"]
         self.d_x = 0.0
-        self.nis = NisWindow(self.T, p["nis_window"])  # of the innovation's χ²(1)
+        self.nis = WindowMean(self.T, p["nis_window"])  # of the innovation's χ²(1)
         self.c1_norm: list[float] = []
         self.eigenvalues: list[np.ndarray] = []
         self.diverged: list[bool] = []
