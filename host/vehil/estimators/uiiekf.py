@@ -30,8 +30,9 @@ average) above `nis_max` says the model no longer explains the wheels. So do a s
 more than 3σ outside [0, v_max] (a wheel's: [0, v_max / R]; below 0 it turns backwards),
 and a speed variance above v_max² or a negative variance, after the update or after the
 prediction. While both wheels turn slower than
-`v_min` the slip model means nothing: the average holds, and ILL_CONDITIONED says that
-d̂ (then the wheels' noise times |(C B)⁺|) and v̂ are not determined by the wheels.
+`v_min` the slip model means nothing: the average holds, d̂ is 0 (the torque holding a
+standing car is a static reaction; estimated, it would be the wheels' noise times
+|(C B)⁺|), and ILL_CONDITIONED says that v̂ is not determined by the wheels.
 
 The sample time is not in the paper; 10 ms is the usual period of ABS wheel-speed
 signals. `Uikf` is the linear UIKF of eqs. 27-28 on the model linearised once, at
